@@ -1,0 +1,204 @@
+"""isoparam's solver: Sun & Hancock's fast isometric parametrization, in numpy/scipy.
+
+>>> from isoparam_addon.solver import parametrize
+>>> result = parametrize(vertices, faces)        # doctest: +SKIP
+>>> result.uv                                    # (n, 2) float64, one UV per vertex
+
+This package never imports bpy: it runs in plain CPython and inside Blender alike.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import metrics
+from .align import fit_rotation_scale, orient_and_pack
+from .blocks import Islands
+from .embed import spectral_embedding
+from .errors import InvalidMeshError, IsoparamError, SolverError
+from .local import local_flattening
+from .mesh import HalfEdges, Topology, build_topology, fans, validate
+from .weights import reconstruction_weights
+
+__all__ = [
+    "parametrize",
+    "Parametrization",
+    "IsoparamError",
+    "InvalidMeshError",
+    "SolverError",
+    "metrics",
+]
+
+
+@dataclass
+class Parametrization:
+    """What :func:`parametrize` returns.
+
+    Attributes
+    ----------
+    uv : (n, 2) float64
+        One UV per input vertex, in mesh units (true scale). A vertex on a seam or an
+        automatic cut has several UVs; ``uv`` holds the one of its lowest split copy and
+        ``corner_uv`` holds them all. Vertices used by no face get (0, 0).
+    corner_uv : (m, 3, 2) float64
+        UV of every face corner, in the input corner order.
+    face_island : (m,) int64
+        Island of each face.
+    n_islands : int
+    cut_edges : (k, 2) int64
+        Vertex pairs of edges cut automatically to open non-disk islands.
+    cut_islands : (j,) int64
+        Islands that were not topological disks (closed, with handles, several boundary
+        loops, non-orientable) and were cut.
+    flipped : (m,) bool
+        Faces whose UV triangle is clockwise (folded) or collapsed.
+    eigenvalues : (n_islands, 2) float64
+        Ritz values of ``M`` for the two embedding vectors (Step 3).
+    converged : (n_islands,) bool
+        Whether Step 3 met its tolerance on each island.
+    warnings : list of str
+    timings : dict
+        Seconds per step.
+    stats : dict
+        Counters: extra vertices borrowed, regularized rows, iterations, ...
+    """
+
+    uv: np.ndarray
+    corner_uv: np.ndarray
+    face_island: np.ndarray
+    n_islands: int
+    cut_edges: np.ndarray
+    cut_islands: np.ndarray
+    flipped: np.ndarray
+    eigenvalues: np.ndarray
+    converged: np.ndarray
+    warnings: list = field(default_factory=list)
+    timings: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
+    _mesh: tuple = field(default=None, repr=False)
+
+    def distortion(self) -> dict:
+        """All measures of :mod:`isoparam_addon.solver.metrics` for this layout."""
+        V, F = self._mesh
+        return metrics.distortion(V, F, self.corner_uv, self.face_island)
+
+
+def _warnings(topo: Topology, emb, clipped, wstats, flipped, unused) -> list[str]:
+    out = []
+    for name, isl in (
+        ("closed", topo.closed_islands),
+        ("with handles", topo.handle_islands),
+        ("with several boundary loops", topo.multi_boundary_islands),
+        ("non-orientable", topo.nonorientable_islands),
+    ):
+        if len(isl):
+            out.append(
+                f"{len(isl)} island(s) {name} were cut into disks automatically "
+                f"(first: island {isl[0]}); mark seams to choose the cut"
+            )
+    bad = np.flatnonzero(~emb.converged)
+    if bad.size:
+        out.append(
+            f"step 3 did not converge on {bad.size} island(s) (first: island {bad[0]}, "
+            f"subspace change {emb.change[bad[0]]:.1e})"
+        )
+    if clipped.any():
+        out.append(f"step 4 fitted a degenerate scale on {int(clipped.sum())} island(s)")
+    if wstats["regularized"]:
+        out.append(f"{wstats['regularized']} vertices have no exact reconstruction (degenerate fans)")
+    if flipped.any():
+        out.append(f"{int(flipped.sum())} triangle(s) are flipped in the layout (first: face {np.argmax(flipped)})")
+    if unused:
+        out.append(f"{unused} vertices belong to no face and were placed at (0, 0)")
+    return out
+
+
+def parametrize(
+    vertices,
+    faces,
+    seams=None,
+    *,
+    pack: bool = True,
+    margin: float = 0.02,
+    tol: float = 1e-8,
+    max_iter: int = 40,
+) -> Parametrization:
+    """Unwrap a triangle mesh with Sun & Hancock's isometric parametrization.
+
+    Parameters
+    ----------
+    vertices : (n, 3) array_like of float
+    faces : (m, 3) array_like of int
+    seams : (k, 2) array_like of int, optional
+        Vertex pairs of edges to cut along; pairs that are not edges are ignored.
+    pack : bool
+        Place islands side by side without overlap (mesh units). If False every island
+        is centred at the origin in its own frame.
+    margin : float
+        Gap between packed islands, as a fraction of the square root of their total area.
+    tol, max_iter :
+        Convergence of Step 3 (sine of the subspace change) and its iteration cap.
+
+    Returns
+    -------
+    Parametrization
+
+    Raises
+    ------
+    InvalidMeshError
+        For invalid input (see :func:`mesh.validate`); nothing is modified in place.
+    """
+    t = {}
+    t0 = time.perf_counter()
+    V, F = validate(vertices, faces)
+    topo = build_topology(V, F, seams)
+    # solve with the vertices numbered island by island
+    order = np.argsort(topo.vertex_island, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    faces_i = rank[topo.faces]
+    X = V[topo.vertex_of[order]]
+    islands = Islands(topo.vertex_island[order], topo.n_islands)
+    he = HalfEdges(faces_i, len(X))
+    fan = fans(faces_i, len(X))
+    t1 = time.perf_counter()
+    patches = local_flattening(X, faces_i, fan)
+    t2 = time.perf_counter()
+    L, wstats = reconstruction_weights(X, faces_i, he.twin, patches, len(X))
+    t3 = time.perf_counter()
+    emb = spectral_embedding(L, X, islands, tol=tol, max_iter=max_iter)
+    t4 = time.perf_counter()
+    edges = he.edge_vertices
+    length = np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
+    Y, _, clipped = fit_rotation_scale(emb.coords, edges, length, islands.label[edges[:, 0]], islands)
+    uv_i, flipped = orient_and_pack(Y, faces_i, topo.face_island, islands, pack=pack, margin=margin)
+    t5 = time.perf_counter()
+    uv_split = uv_i[rank]
+    corner_uv = uv_split[topo.corner_vertex]
+    uv = np.zeros((len(V), 2))
+    first = np.full(len(V), len(uv_split), dtype=np.int64)
+    np.minimum.at(first, topo.vertex_of, np.arange(len(uv_split)))
+    used = first < len(uv_split)
+    uv[used] = uv_split[first[used]]
+    t.update(topology=t1 - t0, local=t2 - t1, weights=t3 - t2, embedding=t4 - t3, align=t5 - t4)
+    t.update({f"embedding.{k}": v for k, v in emb.timings.items()})
+    t["total"] = time.perf_counter() - t0
+    stats = dict(wstats, iterations=emb.iterations, vertices=len(V), faces=len(F), split_vertices=len(X))
+    return Parametrization(
+        uv=uv,
+        corner_uv=corner_uv,
+        face_island=topo.face_island,
+        n_islands=topo.n_islands,
+        cut_edges=topo.cut_edges,
+        cut_islands=topo.cut_islands,
+        flipped=flipped,
+        eigenvalues=emb.eigenvalues,
+        converged=emb.converged,
+        warnings=_warnings(topo, emb, clipped, wstats, flipped, int((~used).sum())),
+        timings=t,
+        stats=stats,
+        _mesh=(V, F),
+    )

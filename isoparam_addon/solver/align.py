@@ -1,0 +1,123 @@
+"""Step 4 of Sun & Hancock: rotation and anisotropic scale fitted to edge lengths,
+Eqs. (15)-(18), then the placement of the islands in one layout.
+
+With ``A = R^T S^2 R`` the squared 2D length of edge (i, j) is linear in
+``(A11, A12, A22)``, Eq. (17), so minimising Eq. (16),
+``sum (d_ij^2 - l_ij^2)^2``, is a 3-unknown linear least-squares problem per island.
+The eigendecomposition of A gives R and S, and ``y_i = S R y_Ii`` (Eq. 15).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .blocks import Islands
+
+__all__ = ["fit_rotation_scale", "orient_and_pack"]
+
+
+def fit_rotation_scale(Y_I, edges, length, edge_island, islands: Islands):
+    """Fit ``A`` per island and apply ``y = S R y_I`` (Step 4).
+
+    Parameters
+    ----------
+    Y_I : (n, 2) float64
+        Coordinates from Step 3.
+    edges : (e, 2) int64
+        Undirected edges.
+    length : (e,) float64
+        3D edge lengths ``l_ij``.
+    edge_island : (e,) int64
+    islands : Islands
+
+    Returns
+    -------
+    Y : (n, 2) float64
+    A : (n_islands, 2, 2) float64
+    clipped : (n_islands,) bool
+        Islands whose fitted A was not positive definite and was clipped.
+    """
+    d = Y_I[edges[:, 0]] - Y_I[edges[:, 1]]
+    rows = np.stack([d[:, 0] ** 2, 2.0 * d[:, 0] * d[:, 1], d[:, 1] ** 2], axis=1)  # Eq. (17)
+    target = length**2
+    nI = islands.n
+    normal = np.empty((nI, 3, 3))
+    rhs = np.empty((nI, 3))
+    for a in range(3):  # the 3x3 normal equations of Eq. (16), summed per island
+        rhs[:, a] = np.bincount(edge_island, rows[:, a] * target, minlength=nI)
+        for b in range(a, 3):
+            normal[:, a, b] = normal[:, b, a] = np.bincount(edge_island, rows[:, a] * rows[:, b], minlength=nI)
+    scale = np.sqrt(np.maximum(np.einsum("ijj->ij", normal), 1e-300))
+    ns = normal / scale[:, :, None] / scale[:, None, :]
+    coef = np.linalg.solve(ns + 1e-15 * np.eye(3), (rhs / scale)[:, :, None])[:, :, 0] / scale
+    A = np.stack([coef[:, [0, 1]], coef[:, [1, 2]]], axis=1)  # Eq. (18)
+    s2, U = np.linalg.eigh(A)  # A = U diag(s^2) U^T, so R = U^T and S = diag(s)
+    floor = 1e-12 * np.maximum(s2[:, 1:], 1e-300)
+    clipped = s2[:, 0] < floor[:, 0]
+    s2 = np.maximum(s2, floor)
+    T = U * np.sqrt(s2)[:, None, :]  # rows: y = y_I U S
+    return islands.apply(Y_I, T), A, clipped
+
+
+def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Signed area of each triangle of a 2D layout, (m,) float64 (positive = CCW)."""
+    a, b, c = uv[faces[:, 0]], uv[faces[:, 1]], uv[faces[:, 2]]
+    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+
+
+def orient_and_pack(Y, faces, face_island, islands: Islands, pack: bool = True, margin: float = 0.02):
+    """Make every island counter-clockwise, align it with its principal axes, place it.
+
+    Mirroring fixes the reflection the eigenvectors leave free; the principal-axes
+    rotation makes the layout deterministic and compact. With ``pack`` the islands go
+    on shelves side by side in mesh units (true scale, no overlap), ``margin`` being a
+    fraction of the square root of the total area; otherwise every island keeps its
+    own frame centred at the origin.
+
+    Returns ``(uv (n, 2), flipped (m,) bool)``.
+    """
+    nI = islands.n
+    area = signed_areas(Y, faces)
+    mirror = np.bincount(face_island, area, minlength=nI) < 0
+    Y = Y.copy()
+    Y[islands.expand(mirror), 0] *= -1.0
+    c = islands.mean(Y)
+    Yc = Y - islands.expand(c)
+    cov = islands.gram(Yc, Yc)
+    _, U = np.linalg.eigh(cov)
+    R = U[:, :, ::-1].copy()  # major axis first
+    R[:, :, 1] *= np.sign(np.linalg.det(R))[:, None]  # keep orientation
+    Yr = islands.apply(Yc, R)
+    skew = islands.sum(Yr[:, :1] ** 3)[:, 0]
+    turn = np.where(skew < 0, -1.0, 1.0)
+    Yr *= islands.expand(turn)[:, None]
+    flipped = signed_areas(Yr, faces) <= 0
+    if not pack:
+        return Yr, flipped
+    lo = np.full((nI, 2), np.inf)
+    hi = np.full((nI, 2), -np.inf)
+    np.minimum.at(lo, islands.label, Yr)
+    np.maximum.at(hi, islands.label, Yr)
+    size = hi - lo
+    gap = margin * np.sqrt(max(float(np.prod(size, axis=1).sum()), 1e-300))
+    offset = _shelves(size, gap)
+    return Yr - islands.expand(lo) + islands.expand(offset), flipped
+
+
+def _shelves(size: np.ndarray, gap: float) -> np.ndarray:
+    """Lower-left corners for boxes (k, 2) on shelves, tallest first, rows ~ square."""
+    k = len(size)
+    if k == 1:
+        return np.zeros((1, 2))
+    order = np.lexsort((np.arange(k), -size[:, 1]))
+    width = max(float(size[:, 0].max()), float(np.sqrt(((size[:, 0] + gap) * (size[:, 1] + gap)).sum())))
+    out = np.zeros((k, 2))
+    x = y = row_h = 0.0
+    for i in order:  # one step per island
+        w, h = size[i]
+        if x > 0 and x + w > width:
+            x, y, row_h = 0.0, y + row_h + gap, 0.0
+        out[i] = (x, y)
+        x += w + gap
+        row_h = max(row_h, h)
+    return out

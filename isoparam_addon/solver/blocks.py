@@ -1,0 +1,95 @@
+"""Per-island small dense algebra over vertices stored island by island.
+
+The solver numbers vertices so that each island is one contiguous block of rows. Then a
+per-island Gram matrix ``V_i^T W_i`` is one BLAS call for a large island and one sparse
+product for all the small ones together, and a per-island change of basis ``V_i T_i``
+is a handful of vector operations. No loop runs over vertices; the loop over large
+islands is bounded by n / ``_LARGE``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["Islands"]
+
+_LARGE = 1024  # islands with more rows than this get their own BLAS call (and SVD)
+
+
+class Islands:
+    """Contiguous row blocks, one per island.
+
+    Parameters
+    ----------
+    label : (n,) int64
+        Island of each row, non-decreasing.
+    n_islands : int
+    """
+
+    def __init__(self, label: np.ndarray, n_islands: int):
+        self.label = label
+        self.n = n_islands
+        self.size = np.bincount(label, minlength=n_islands)
+        self.start = np.zeros(n_islands + 1, dtype=np.int64)
+        self.start[1:] = np.cumsum(self.size)
+        if np.any(np.diff(label) < 0):
+            raise ValueError("rows must be sorted by island")
+        self.large = np.flatnonzero(self.size > _LARGE)
+        small_rows = ~np.isin(label, self.large) if self.large.size else np.ones(len(label), dtype=bool)
+        self.small_rows = np.flatnonzero(small_rows)
+        self.small_indicator = sp.csr_matrix(
+            (np.ones(len(self.small_rows)), (label[self.small_rows], np.arange(len(self.small_rows)))),
+            shape=(n_islands, len(self.small_rows)),
+        )
+
+    def rows(self, i: int) -> slice:
+        return slice(int(self.start[i]), int(self.start[i + 1]))
+
+    def sum(self, x: np.ndarray) -> np.ndarray:
+        """Per-island sum of rows: (n, ...) -> (n_islands, ...)."""
+        flat = x.reshape(len(x), -1)
+        out = np.zeros((self.n, flat.shape[1]))
+        out += self.small_indicator @ flat[self.small_rows] if self.small_rows.size else 0.0
+        for i in self.large:
+            out[i] = flat[self.rows(i)].sum(axis=0)
+        return out.reshape((self.n,) + x.shape[1:])
+
+    def mean(self, x: np.ndarray) -> np.ndarray:
+        s = self.sum(x)
+        return s / np.maximum(self.size, 1).reshape((-1,) + (1,) * (x.ndim - 1))
+
+    def gram(self, A: np.ndarray, B: np.ndarray, large: bool = True) -> np.ndarray:
+        """Per-island ``A_i^T B_i``: (n, p), (n, q) -> (n_islands, p, q).
+
+        With ``large=False`` the large islands are left at zero.
+        """
+        p, q = A.shape[1], B.shape[1]
+        out = np.zeros((self.n, p, q))
+        if self.small_rows.size:
+            As, Bs = A[self.small_rows], B[self.small_rows]
+            outer = (As[:, :, None] * Bs[:, None, :]).reshape(len(As), p * q)
+            out += (self.small_indicator @ outer).reshape(self.n, p, q)
+        for i in self.large if large else ():
+            r = self.rows(i)
+            out[i] = A[r].T @ B[r]
+        return out
+
+    def apply(self, V: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """Per-island ``V_i T_i``: (n, p), (n_islands, p, q) -> (n, q)."""
+        out = np.zeros((len(V), T.shape[2]))
+        if self.small_rows.size:
+            rows = self.small_rows
+            lab = self.label[rows]
+            acc = np.zeros((len(rows), T.shape[2]))
+            for a in range(V.shape[1]):  # p columns, p <= ~10
+                acc += V[rows, a : a + 1] * T[lab, a, :]
+            out[rows] = acc
+        for i in self.large:
+            r = self.rows(i)
+            out[r] = V[r] @ T[i]
+        return out
+
+    def expand(self, x: np.ndarray) -> np.ndarray:
+        """Broadcast per-island values to rows."""
+        return x[self.label]

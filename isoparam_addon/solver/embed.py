@@ -1,0 +1,319 @@
+"""Step 3 of Sun & Hancock: the spectral embedding, Eqs. (12)-(14).
+
+We need, per island, the two non-constant vectors of the near-null space of
+``M = (I - W)^T (I - W) = L^T L``. On a developable island that space is exactly
+``{1, u, v}`` (three zero eigenvalues), so "drop the lowest eigenvector" is read as
+"remove the constant from the null space": we work in the complement of ``1``.
+
+Why not the obvious routes (measured on this machine, see the README):
+
+* shift-invert ``eigsh`` on M factors M itself: M squares the conditioning of L, has
+  2-ring sparsity and fills SuperLU heavily; it stalls beyond ~100k vertices;
+* pinning three vertices and solving the normal equations ``M_FF x = b`` loses accuracy
+  for the same reason (cond(M_FF) = cond(L_FF)^2);
+* a square solve of the free rows ``L_FF x = -L_FP p`` is exact on developable meshes but
+  throws away three equations, and folds curved meshes.
+
+What we do instead
+------------------
+1. Pin three far-apart vertices P per island and factor only the square matrix
+   ``A = L_FF`` (1-ring sparsity, conditioning of L, nested-dissection order). The pinned
+   rows ``E = L_PF`` enter through the Woodbury identity
+   ``M_FF^{-1} = A^{-1} (I - G^T (I + G G^T)^{-1} G) A^{-T}`` with ``G = E A^{-1}``,
+   so applying ``M_FF^{-1}`` costs one transposed and one plain triangular solve and a
+   3x3 system per island, never forming M.
+2. The three *pinned least-squares* functions ``h_k = argmin ||L x||`` with ``x_P = e_k``
+   span ``{1, u, v}`` exactly on a developable island. In general they are the
+   M-orthogonal complement of the free space, so ``M^+ b = H c + [M_FF^{-1} b_F; 0]`` for
+   some c: inverse iteration on M needs only ``M_FF^{-1}``, as long as the search space
+   keeps span(H).
+3. Block inverse iteration with Rayleigh-Ritz over ``[X_k, H, M_FF^{-1} R_k]``, where
+   ``R_k = M X_k - X_k Lambda_k`` is the Ritz residual (the current vectors are kept, as
+   in LOBPCG, and the correction is computed from the residual so that it stays
+   accurate when it is tiny). The Ritz step evaluates ``||L x||^2`` through L
+   itself, so its accuracy follows cond(L), not cond(M), and the *result* is the paper's
+   eigenvector pair whatever the pins: they only change how fast it converges. A
+   developable island converges in one step.
+
+The whole mesh is solved at once: islands are independent diagonal blocks, so one
+factorization serves all of them, and the per-island Ritz problems are batched.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+from .blocks import Islands
+from .ordering import nested_dissection
+
+__all__ = ["Embedding", "choose_pins", "spectral_embedding"]
+
+
+@dataclass
+class Embedding:
+    """Result of Step 3.
+
+    Attributes
+    ----------
+    coords : (n, 2) float64
+        ``Y_I``, centred (Eq. 13) with ``Y^T Y / N = I`` per island (Eq. 14).
+    eigenvalues : (n_islands, 2) float64
+        Ritz values of M for the two vectors (``~0`` on developable islands).
+    converged : (n_islands,) bool
+    change : (n_islands,) float64
+        Sine of the angle the subspace moved in the last iteration.
+    iterations : int
+    timings : dict
+    """
+
+    coords: np.ndarray
+    eigenvalues: np.ndarray
+    converged: np.ndarray
+    change: np.ndarray
+    iterations: int
+    timings: dict = field(default_factory=dict)
+
+
+def choose_pins(X: np.ndarray, islands: Islands) -> np.ndarray:
+    """Three far-apart, non-collinear vertices per island, (n_islands, 3) int64.
+
+    p0 is farthest from the island's centroid, p1 farthest from p0, p2 farthest from
+    the line p0 p1 (all in 3D). Far-apart pins keep ``L_FF`` well conditioned.
+    """
+    n = len(X)
+    idx = np.arange(n)
+    lab = islands.label
+
+    def argmax(d, exclude=()):
+        d = d.copy()
+        for e in exclude:
+            d[e] = -np.inf
+        top = np.full(islands.n, -np.inf)
+        np.maximum.at(top, lab, d)
+        cand = np.where(d == top[lab], idx, n)
+        first = np.full(islands.n, n, dtype=np.int64)
+        np.minimum.at(first, lab, cand)
+        return first
+
+    c = islands.mean(X)
+    p0 = argmax(((X - c[lab]) ** 2).sum(axis=1))
+    p1 = argmax(((X - X[p0][lab]) ** 2).sum(axis=1), exclude=(p0,))
+    u = X[p1] - X[p0]
+    u /= np.maximum(np.linalg.norm(u, axis=1), 1e-300)[:, None]
+    r = X - X[p0][lab]
+    r -= (r * u[lab]).sum(axis=1)[:, None] * u[lab]
+    p2 = argmax((r**2).sum(axis=1), exclude=(p0, p1))
+    return np.stack([p0, p1, p2], axis=1)
+
+
+class _PinnedLeastSquares:
+    """One sparse LU that applies ``M_FF^{-1}`` and gives the pinned least-squares basis.
+
+    ``L_F = L[:, F]`` (all n rows, the free columns) has full column rank, but its square
+    part ``L_FF`` can be singular: dropping the pinned *rows* is only safe if the left
+    null space of L reaches them, and on meshes with slivers that space concentrates on
+    a few sliver rows (measured: cond(L_FF) = 1e15 on a developable cone strip whose
+    L is fine). So we keep every row and border ``L_F`` with three seeded random
+    columns per island, ``A = [L_F  B]`` (n x n, nonsingular for almost every B, with the
+    sparsity of L plus three dense columns that the elimination order puts last).
+    With ``S = (A^T A)^{-1} = A^{-1} A^{-T}`` and ``M_FF = L_F^T L_F`` the leading block of
+    ``A^T A``, the block-inverse identity gives
+
+        M_FF^{-1} = S_FF - S_FB S_BB^{-1} S_BF,
+
+    so one transposed and one plain triangular solve, plus a 3x3 system per island,
+    apply ``M_FF^{-1}`` without ever forming M (whose conditioning is cond(L)^2).
+    """
+
+    def __init__(self, L: sp.csr_matrix, X: np.ndarray, islands: Islands, pins: np.ndarray):
+        n = L.shape[0]
+        nI = islands.n
+        self.n, self.islands, self.pins, self.L = n, islands, pins, L.tocsr()
+        is_pin = np.zeros(n, dtype=bool)
+        is_pin[pins.ravel()] = True
+        free = np.flatnonzero(~is_pin)
+        self.nf = nf = len(free)
+        t0 = time.perf_counter()
+        Lc = L.tocsr()
+        A0 = Lc[free][:, free].tocoo()
+        self.fperm = free[nested_dissection(X[free], np.stack([A0.row, A0.col], axis=1))] if nf else free
+        t1 = time.perf_counter()
+        # rows: free vertices (elimination order), then the pins; columns: free, then B
+        self.rows = np.concatenate([self.fperm, pins.ravel()])
+        self.label = np.concatenate([islands.label[self.fperm], np.repeat(np.arange(nI), 3)])
+        self.B = np.random.default_rng(0x150).standard_normal((n, 3))  # seeded: deterministic
+        brow = np.empty(n, dtype=np.int64)
+        brow[self.rows] = np.arange(n)
+        bcol = nf + 3 * islands.label[:, None] + np.arange(3)
+        border = sp.csr_matrix((self.B.ravel(), (np.repeat(brow, 3), bcol.ravel())), shape=(n, n))
+        A = (sp.hstack([Lc[self.rows][:, self.fperm], sp.csr_matrix((n, 3 * nI))]) + border).tocsc()
+        self.lu = splu(A, permc_spec="NATURAL")
+        t2 = time.perf_counter()
+        self.timings = {"ordering": t1 - t0, "factorization": t2 - t1}
+        self.seg = sp.csr_matrix((np.ones(n), (self.label, np.arange(n))), shape=(nI, n))
+        e3 = np.zeros((n, 3))
+        e3[nf + np.arange(3 * nI), np.tile(np.arange(3), nI)] = 1.0  # B columns, k-th of each island
+        self.Tz = self.lu.solve(e3, trans="T")  # A^{-T} E_B
+        self.Z = self.lu.solve(self.Tz)  # S E_B
+        self.Zbb = self.Z[nf:].reshape(nI, 3, 3)  # S_BB per island
+
+    def _per_island(self, cols: np.ndarray, coef: np.ndarray) -> np.ndarray:
+        """Row-wise ``cols[r] . coef[island(r)]``: (n, 3), (n_islands, 3, p) -> (n, p)."""
+        return np.einsum("rk,rkp->rp", cols, coef[self.label])
+
+    def _finish(self, Xs: np.ndarray) -> np.ndarray:
+        """From ``Xs = S [y; 0]`` to ``M_FF^{-1} y`` (free rows, elimination order)."""
+        nI, p = self.islands.n, Xs.shape[1]
+        c = np.linalg.solve(self.Zbb, Xs[self.nf :].reshape(nI, 3, p))
+        return (Xs - self._per_island(self.Z, c))[: self.nf]
+
+    def solve_mff(self, b: np.ndarray) -> np.ndarray:
+        """``[M_FF^{-1} b_F; 0]`` for b (n, p)."""
+        out = np.zeros_like(b)
+        if self.nf:
+            rhs = np.zeros((self.n, b.shape[1]))
+            rhs[: self.nf] = b[self.fperm]
+            out[self.fperm] = self._finish(self.lu.solve(self.lu.solve(rhs, trans="T")))
+        return out
+
+    def harmonic_basis(self) -> np.ndarray:
+        """``H`` (n, 3): ``h_k = argmin ||L x||`` subject to x = e_k on each island's pins.
+
+        The free part is ``-M_FF^{-1} L_F^T r_k`` with ``r_k = L[:, P] e_k``; since
+        ``[L_F^T r; 0] = A^T r - [0; B^T r]``, the first solve is replaced by
+        ``r - A^{-T} E_B (B^T r)``.
+        """
+        H = np.zeros((self.n, 3))
+        for k in range(3):
+            H[self.pins[:, k], k] = 1.0
+        if self.nf:
+            r = self.L @ H  # L[:, P] e_k for every island at once, (n, 3)
+            Btr = self.islands.gram(self.B, r)  # per island (3, 3): B^T r
+            rr = r[self.rows]
+            rhs = rr - self._per_island(self.Tz, Btr)
+            H[self.fperm] = -self._finish(self.lu.solve(rhs))
+        return H
+
+
+def _basis(blocks, islands: Islands, drop: float = 1e-12) -> np.ndarray:
+    """Per-island orthonormal basis of the blocks' columns, orthogonal to the constant.
+
+    Classical Gram-Schmidt, twice (CGS2), one column at a time: a column whose part
+    outside the previous ones is small but real (a correction of relative size 1e-7
+    near convergence) is kept and normalised, not lost as it would be by an eigenvalue
+    cut-off on the Gram matrix. A column is dropped on an island (set to zero there)
+    when less than ``drop`` of it survives.
+    """
+    cols: list[np.ndarray] = []
+    lab = islands.label
+    for B in blocks:
+        B = B - islands.expand(islands.mean(B))
+        for j in range(B.shape[1]):  # at most ~8 columns
+            v = B[:, j : j + 1]
+            n0 = np.sqrt(islands.sum(v * v)[:, 0])
+            for _ in range(2):
+                if cols:
+                    Q = np.hstack(cols)
+                    v = v - islands.apply(Q, islands.gram(Q, v))
+            n1 = np.sqrt(islands.sum(v * v)[:, 0])
+            ok = (n1 > drop * n0) & (n1 > 0)
+            cols.append(np.where(ok[lab, None], v / np.where(ok, n1, 1.0)[lab, None], 0.0))
+    return np.hstack(cols)
+
+
+def _ritz(L, Q: np.ndarray, islands: Islands, p: int):
+    """Rayleigh-Ritz for ``min ||L x|| / ||x||`` over span(Q), Q orthonormal per island.
+
+    Returns the p best vectors (orthonormal per island), L times them, and their Ritz
+    values. On a large island the Ritz vectors are the right singular vectors of ``L Q``
+    (thin SVD), so the tiny Ritz values keep their relative accuracy (``eps ||L Q||``
+    on sigma, not ``eps ||L Q||^2`` on sigma^2); the many small islands share one batched
+    eigensolve of ``(L Q)^T (L Q)``, where the eigenvalues are not that small.
+    """
+    LQ = L @ Q
+    k = Q.shape[1]
+    alive = islands.sum(Q * Q) > 0.5  # (n_islands, k): columns dropped by _basis are zero
+    coef = np.zeros((islands.n, k, p))
+    mu = np.zeros((islands.n, p))
+    if islands.small_rows.size:
+        K = islands.gram(LQ, LQ, large=False)
+        K = 0.5 * (K + K.transpose(0, 2, 1))
+        dead = 2.0 * np.abs(K).max(axis=(1, 2))[:, None] + 1e-300
+        K[:, np.arange(k), np.arange(k)] += np.where(alive, 0.0, dead)
+        w, c = np.linalg.eigh(K)
+        q = min(p, k)
+        coef[:, :, :q], mu[:, :q] = c[:, :, :q], w[:, :q]
+    for i in islands.large:  # one thin SVD per large island
+        r = islands.rows(i)
+        cols = np.flatnonzero(alive[i])
+        _, sig, vt = np.linalg.svd(LQ[r][:, cols], full_matrices=False)
+        q = min(p, len(cols))  # fewer columns than wanted only before the block has grown
+        coef[i] = 0.0
+        coef[i][cols, :q] = vt[::-1][:q].T
+        mu[i, :q] = sig[::-1][:q] ** 2
+    return islands.apply(Q, coef), islands.apply(LQ, coef), mu
+
+
+def spectral_embedding(
+    L: sp.csr_matrix,
+    X: np.ndarray,
+    islands: Islands,
+    tol: float = 1e-8,
+    max_iter: int = 40,
+    block: int = 2,
+) -> Embedding:
+    """Two lowest non-constant eigenvectors of ``M = L^T L`` per island (Step 3).
+
+    Parameters
+    ----------
+    L : (n, n) sparse
+        ``I - W`` from Step 2, rows and columns ordered island by island.
+    X : (n, 3) float64
+        Vertex positions (for pins and the fill-reducing order).
+    islands : Islands
+    tol : float
+        Stop when the subspace moves by less than this (sine of the angle).
+    max_iter : int
+
+    Returns
+    -------
+    Embedding
+    """
+    t0 = time.perf_counter()
+    pins = choose_pins(X, islands)
+    pls = _PinnedLeastSquares(L, X, islands, pins)
+    H = pls.harmonic_basis()
+    t1 = time.perf_counter()
+    Y, LY, mu = _ritz(L, _basis([H], islands), islands, block)
+    done = np.zeros(islands.n, dtype=bool)
+    change = np.full(islands.n, np.inf)
+    Y_prev = np.zeros_like(Y)
+    iterations = 0
+    for iterations in range(1, max_iter + 1):  # inverse iterations, a handful per mesh  # noqa: B007
+        # preconditioned residual with the exact inverse on the free block
+        R = L.T @ LY - Y * mu[islands.label]
+        W = pls.solve_mff(R)
+        Y_new, LY_new, mu_new = _ritz(L, _basis([Y, H, W, Y_prev], islands), islands, block)
+        Y_prev = Y
+        cross = islands.gram(Y[:, :2], Y_new[:, :2])
+        moved = Y_new[:, :2] - islands.apply(Y[:, :2], cross)
+        step = np.sqrt(islands.sum(moved**2).sum(axis=1))
+        live = ~done
+        change[live] = step[live]
+        keep_old = islands.expand(done)[:, None]
+        Y = np.where(keep_old, Y, Y_new)
+        LY = np.where(keep_old, LY, LY_new)
+        mu[live] = mu_new[live]
+        done |= step < tol
+        if done.all():
+            break
+    t2 = time.perf_counter()
+    coords = Y[:, :2] * np.sqrt(islands.expand(islands.size.astype(np.float64)))[:, None]
+    timings = dict(pls.timings)
+    timings.update(pinned_basis=t1 - t0 - sum(pls.timings.values()), iterations=t2 - t1)
+    return Embedding(coords, mu[:, :2], done, change, iterations, timings)

@@ -1,0 +1,67 @@
+"""The one exception family raised by the solver.
+
+Every input problem raises :class:`InvalidMeshError` (a ``ValueError``) whose message
+names how many elements are affected and the first offender, and whose attributes
+carry the same facts for programs (the Blender operator turns them into a report that
+tells the artist how to find the elements).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["IsoparamError", "InvalidMeshError", "SolverError"]
+
+
+class IsoparamError(Exception):
+    """Base class of every error isoparam raises on purpose."""
+
+
+class InvalidMeshError(IsoparamError, ValueError):
+    """The input mesh cannot be parametrized as given.
+
+    Attributes
+    ----------
+    kind : str
+        One of ``"empty"``, ``"shape"``, ``"non_finite"``, ``"index_range"``,
+        ``"repeated_vertex"``, ``"duplicate_face"``, ``"non_manifold_edge"``,
+        ``"non_manifold_vertex"``, ``"seam"``.
+    element : str
+        ``"vertex"``, ``"face"`` or ``"edge"``: what ``indices`` index.
+    indices : (k,) int
+        Every offending element (vertex or face index into the caller's arrays;
+        for edges, rows of ``edges``).
+    edges : (k, 2) int or None
+        For edge problems, the vertex pairs of the offending edges.
+    """
+
+    def __init__(self, kind: str, message: str, element: str = "", indices=None, edges=None):
+        super().__init__(message)
+        self.kind = kind
+        self.element = element
+        self.indices = np.asarray([] if indices is None else indices, dtype=np.int64)
+        self.edges = None if edges is None else np.asarray(edges, dtype=np.int64)
+
+    @property
+    def count(self) -> int:
+        return int(self.indices.size)
+
+
+class SolverError(IsoparamError, RuntimeError):
+    """A valid mesh on which the numerical method failed (reported, never NaN)."""
+
+
+def offenders(kind: str, what: str, element: str, indices, edges=None) -> InvalidMeshError:
+    """Build an :class:`InvalidMeshError` whose message quotes the count and first index.
+
+    ``what`` completes the sentence "<count> <element>s <what>", e.g.
+    ``offenders("non_finite", "have non-finite coordinates", "vertex", idx)``.
+    """
+    indices = np.asarray(indices, dtype=np.int64).ravel()
+    count = indices.size
+    plural = element if count == 1 else {"vertex": "vertices"}.get(element, element + "s")
+    first = f"{element} {indices[0]}" if count else ""
+    if edges is not None and count:
+        a, b = np.asarray(edges)[0]
+        first = f"edge ({a}, {b})"
+    return InvalidMeshError(kind, f"{count} {plural} {what} (first: {first})", element, indices, edges)

@@ -1,0 +1,159 @@
+"""Step 2 of Sun & Hancock: minimum-norm affine reconstructing weights, Eqs. (6)-(11).
+
+Eq. (11), ``W_i = Z_j (Z_j^T Z_j)^{-1} z_i`` with ``Z_j = [Y_Lj 1]``, has a short closed
+form. Put the centre at the origin, let ``p`` be the neighbours' mean and ``Q_j = y_j - p``
+their centred positions with scatter ``C = sum_j Q_j Q_j^T``. Then
+
+    W_ij = 1/m - Q_j^T C^{-1} p,
+
+which satisfies both constraints of Eq. (9) and lies in the row space of ``Z_j^T``, so it
+is the minimum-norm solution. Only a 2x2 matrix is inverted per vertex, and the weights
+are invariant to any affine map of the local coordinates.
+
+Degenerate vertices
+-------------------
+``C`` is singular when the neighbours are collinear: always for a boundary vertex with
+two neighbours, occasionally otherwise. Following the paper, such a vertex borrows one
+more vertex k, a neighbour of a neighbour: the far corner of a face across one of its
+fan's rim edges (j_t, j_t+1). We place k where the *local flattening* puts it, by
+unfolding that face across the rim edge with its 3D edge lengths, on the side away from
+the centre. On a developable mesh this is the true developed position, so the weights
+stay exact. A vertex with no such face (an island of one triangle) falls back to
+Tikhonov-regularised weights, which stay finite.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .local import Patch
+
+__all__ = ["reconstruction_weights"]
+
+_DEGENERATE = 1e-10  # det(C) / (tr C / 2)^2 below this: neighbours (nearly) collinear
+_NEXT = np.array([1, 2, 0])
+_PREV = np.array([2, 0, 1])
+
+
+def _affine_weights(P: np.ndarray, reg: float = 0.0):
+    """Minimum-norm affine weights reconstructing the origin from points P (G, m, 2).
+
+    Returns ``(W (G, m), degenerate (G,) bool)``.
+    """
+    scale = np.sqrt((P * P).sum(axis=2).mean(axis=1))
+    scale = np.where(scale > 0, scale, 1.0)
+    P = P / scale[:, None, None]
+    p = P.mean(axis=1)
+    Q = P - p[:, None, :]
+    cxx = (Q[:, :, 0] ** 2).sum(axis=1)
+    cyy = (Q[:, :, 1] ** 2).sum(axis=1)
+    cxy = (Q[:, :, 0] * Q[:, :, 1]).sum(axis=1)
+    half_trace = 0.5 * (cxx + cyy)
+    det = cxx * cyy - cxy * cxy
+    degenerate = ~(det > _DEGENERATE * half_trace**2)
+    if reg:
+        delta = reg * np.maximum(half_trace, 1e-300)
+        cxx, cyy = cxx + delta, cyy + delta
+        det = cxx * cyy - cxy * cxy
+    safe = np.where(degenerate & (reg == 0), 1.0, det)
+    # u = C^{-1} p
+    ux = (cyy * p[:, 0] - cxy * p[:, 1]) / safe
+    uy = (cxx * p[:, 1] - cxy * p[:, 0]) / safe
+    m = P.shape[1]
+    W = 1.0 / m - (Q[:, :, 0] * ux[:, None] + Q[:, :, 1] * uy[:, None])
+    return W, degenerate
+
+
+def _extra_vertex(X, faces, twin, patch: Patch, rows: np.ndarray):
+    """The paper's extra vertex for degenerate centres ``patch.vertex[rows]``.
+
+    Returns ``(ok (r,) bool, k (r,) int64, y_k (r, 2) float64)``: the borrowed vertex and
+    its position in the local flattening.
+    """
+    C = patch.corners[rows]  # (r, K)
+    Y = patch.coords[rows]  # (r, m+1, 2)
+    nb = patch.neighbours[rows]
+    m = nb.shape[1]
+    flat = faces.ravel()
+    rim = 3 * (C // 3) + _NEXT[C % 3]  # half-edge j_t -> j_t+1 in face t
+    tw = twin[rim]
+    has = tw >= 0
+    far = np.where(has, flat[3 * (tw // 3) + _PREV[tw % 3]], -1)
+    centre = patch.vertex[rows]
+    known = (far[:, :, None] == nb[:, None, :]).any(axis=2) | (far == centre[:, None])
+    ok_t = has & ~known
+    ok = ok_t.any(axis=1)
+    t = np.argmax(ok_t, axis=1)
+    r = np.arange(len(rows))
+    ia = 1 + t
+    ib = 1 + (t + 1) % m
+    ka = nb[r, t]
+    kb = nb[r, (t + 1) % m]
+    k = far[r, t]
+    Pa, Pb, P0 = Y[r, ia], Y[r, ib], Y[r, 0]
+    base_vec = Pb - Pa
+    base = np.linalg.norm(base_vec, axis=1)
+    base = np.where(base > 0, base, 1.0)
+    e = base_vec / base[:, None]
+    nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
+    la2 = ((X[k] - X[ka]) ** 2).sum(axis=1)
+    lb2 = ((X[k] - X[kb]) ** 2).sum(axis=1)
+    along = (la2 - lb2 + base**2) / (2 * base)
+    height = np.sqrt(np.maximum(la2 - along**2, 0.0))
+    side = np.where(((P0 - Pa) * nrm).sum(axis=1) > 0, -1.0, 1.0)
+    yk = Pa + along[:, None] * e + (side * height)[:, None] * nrm
+    return ok, k, yk
+
+
+def reconstruction_weights(X, faces, twin, patches: list[Patch], n: int):
+    """Assemble ``L = I - W`` from the local flattenings (Step 2).
+
+    Parameters
+    ----------
+    X : (n, 3) float64
+    faces : (m, 3) int64
+        Oriented faces (needed to find the extra vertex of degenerate centres).
+    twin : (3m,) int64
+        Twin half-edge of each half-edge of ``faces`` (-1 on the boundary).
+    patches : list of Patch
+    n : int
+
+    Returns
+    -------
+    L : (n, n) scipy.sparse.csr_matrix
+        ``I - W``; every row sums to zero.
+    stats : dict
+        ``extra_vertex``: centres that borrowed a vertex; ``regularized``: centres left
+        with regularised weights (no face to borrow from).
+    """
+    rows, cols, vals = [np.arange(n)], [np.arange(n)], [np.ones(n)]
+
+    def emit(centre, nb, W):
+        rows.append(np.repeat(centre, nb.shape[1]))
+        cols.append(nb.ravel())
+        vals.append(-W.ravel())
+
+    n_extra = n_reg = 0
+    for patch in patches:
+        P = patch.coords[:, 1:] - patch.coords[:, :1]
+        W, bad = _affine_weights(P)
+        emit(patch.vertex[~bad], patch.neighbours[~bad], W[~bad])
+        if not bad.any():
+            continue
+        idx = np.flatnonzero(bad)
+        ok, k, yk = _extra_vertex(X, faces, twin, patch, idx)
+        P_aug = np.concatenate([P[idx], (yk - patch.coords[idx, 0])[:, None, :]], axis=1)
+        nb_aug = np.concatenate([patch.neighbours[idx], k[:, None]], axis=1)
+        W_aug, still = _affine_weights(P_aug)
+        use = ok & ~still
+        emit(patch.vertex[idx[use]], nb_aug[use], W_aug[use])
+        n_extra += int(use.sum())
+        stuck = ok & still
+        W_reg, _ = _affine_weights(P_aug[stuck], reg=1e-8)
+        emit(patch.vertex[idx[stuck]], nb_aug[stuck], W_reg)
+        W_reg, _ = _affine_weights(P[idx[~ok]], reg=1e-8)
+        emit(patch.vertex[idx[~ok]], patch.neighbours[idx[~ok]], W_reg)
+        n_reg += int((~use).sum())
+    L = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+    return L, {"extra_vertex": n_extra, "regularized": n_reg}

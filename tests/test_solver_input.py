@@ -1,0 +1,155 @@
+"""Bad input: one exception family, a message with the count and first offender, no
+modification of the caller's arrays. Hard but valid input: solved, never NaN."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from isoparam_addon.solver import InvalidMeshError, IsoparamError, parametrize
+from isoparam_addon.solver import examples as ex
+
+
+def square():
+    V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
+    F = np.array([[0, 1, 2], [0, 2, 3]])
+    return V, F
+
+
+def raises(kind, V, F, match, **kw):
+    V0, F0 = np.array(V, copy=True), np.array(F, copy=True)
+    with pytest.raises(InvalidMeshError, match=match) as info:
+        parametrize(V, F, **kw)
+    assert info.value.kind == kind
+    assert isinstance(info.value, IsoparamError) and isinstance(info.value, ValueError)
+    if isinstance(V, np.ndarray):
+        np.testing.assert_array_equal(V, V0)  # nothing modified in place, NaNs included
+    if isinstance(F, np.ndarray):
+        np.testing.assert_array_equal(F, F0)
+    return info.value
+
+
+def test_empty_mesh():
+    raises("empty", np.zeros((0, 3)), np.zeros((0, 3), dtype=int), "empty mesh: 0 vertices and 0 faces")
+    V, _ = square()
+    raises("empty", V, np.zeros((0, 3), dtype=int), "0 faces")
+
+
+def test_wrong_shapes_and_dtypes():
+    V, F = square()
+    raises("shape", V[:, :2], F, r"vertices must have shape \(n, 3\)")
+    raises("shape", V, F[:, :2], r"faces must have shape \(m, 3\)")
+    raises("shape", V, F + 0.5, "integer indices")
+
+
+def test_non_finite_coordinates_name_count_and_first():
+    V, F = square()
+    V[2, 1] = np.nan
+    V[3, 0] = np.inf
+    err = raises("non_finite", V, F, r"2 vertices have non-finite coordinates \(first: vertex 2\)")
+    assert err.indices.tolist() == [2, 3] and err.element == "vertex"
+
+
+def test_index_out_of_range():
+    V, F = square()
+    F[1, 2] = 7
+    err = raises("index_range", V, F, r"1 face index a vertex outside 0..3 \(first: face 1\)")
+    assert err.indices.tolist() == [1]
+    F[1, 2] = -1
+    raises("index_range", V, F, "first: face 1")
+
+
+def test_repeated_vertex_in_a_face():
+    V, F = square()
+    F[0] = [0, 1, 1]
+    raises("repeated_vertex", V, F, r"1 face use the same vertex twice \(first: face 0\)")
+
+
+def test_duplicate_face():
+    V, F = square()
+    F = np.vstack([F, [2, 0, 1]])
+    raises("duplicate_face", V, F, r"1 face repeat the vertices of an earlier face \(first: face 2\)")
+
+
+def test_edge_shared_by_three_faces():
+    V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]], dtype=float)
+    F = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
+    err = raises("non_manifold_edge", V, F, r"1 edge are shared by more than two faces \(first: edge \(0, 1\)\)")
+    assert err.edges.tolist() == [[0, 1]]
+
+
+def test_bow_tie_vertex():
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]], dtype=float)
+    F = np.array([[0, 1, 2], [0, 3, 4]])
+    err = raises("non_manifold_vertex", V, F, r"1 vertex join faces that share no edge .*\(first: vertex 0\)")
+    assert err.indices.tolist() == [0]
+
+
+def test_bad_seams():
+    V, F = square()
+    raises("seam", V, F, "seams must be an", seams=np.array([0.5, 1.5]))
+    raises("seam", V, F, r"1 seam index a vertex outside", seams=np.array([[0, 9]]))
+
+
+def test_seam_pairs_that_are_not_edges_are_ignored():
+    V, F = square()
+    r = parametrize(V, F, seams=np.array([[1, 3]]))  # the other diagonal
+    assert r.n_islands == 1
+
+
+def test_inputs_are_not_modified_on_success():
+    V, F = ex.peaks(15)
+    V0, F0 = V.copy(), F.copy()
+    parametrize(V, F)
+    np.testing.assert_array_equal(V, V0)
+    np.testing.assert_array_equal(F, F0)
+
+
+def test_lists_and_other_dtypes_are_accepted():
+    V, F = square()
+    r = parametrize(V.astype(np.float32).tolist(), F.astype(np.uint32))
+    assert r.uv.shape == (4, 2) and r.uv.dtype == np.float64
+
+
+def test_zero_area_and_sliver_faces_give_finite_uvs():
+    V, F = ex.peaks(21)
+    V = V.copy()
+    # collapse one face to a segment (zero area) and one edge to a point (coincident vertices)
+    a, b, c = F[100]
+    V[c] = 0.5 * (V[a] + V[b])
+    d, e, _ = F[300]
+    V[e] = V[d]
+    r = parametrize(V, F)
+    assert np.isfinite(r.uv).all() and np.isfinite(r.corner_uv).all()
+    dist = r.distortion()
+    assert np.isfinite(dist["edge_rms"]) and dist["edge_rms"] < 0.5
+
+
+def test_island_of_one_triangle_is_laid_out_exactly():
+    V = np.array([[0, 0, 0], [3, 0, 0], [0, 4, 0.0]])
+    r = parametrize(V, np.array([[0, 1, 2]]))
+    d = np.linalg.norm(r.uv[[1, 2, 0]] - r.uv, axis=1)
+    np.testing.assert_allclose(d, [3, 5, 4], rtol=1e-12)
+    assert not r.flipped.any()
+
+
+def test_zero_area_island_does_not_give_nan():
+    V = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0.0]])
+    F = np.array([[0, 1, 2], [1, 3, 2]])
+    r = parametrize(V, F)
+    assert np.isfinite(r.uv).all()
+
+
+def test_unreferenced_vertices_get_zero_and_a_warning():
+    V, F = square()
+    V = np.vstack([V, [[5, 5, 5]]])
+    r = parametrize(V, F)
+    assert r.uv[4].tolist() == [0.0, 0.0]
+    assert any("belong to no face" in w for w in r.warnings)
+
+
+def test_solver_imports_without_bpy():
+    code = "import sys, isoparam_addon.solver, isoparam_addon.solver.metrics; print('bpy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

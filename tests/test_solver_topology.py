@@ -1,0 +1,124 @@
+"""Islands, seams, orientation and automatic cuts; the ordered fans of Step 1."""
+
+import numpy as np
+
+from isoparam_addon.solver import examples as ex
+from isoparam_addon.solver import metrics, parametrize
+from isoparam_addon.solver.mesh import build_topology, fans, validate
+
+from .conftest import edge_length_error
+
+
+def test_fans_are_ordered_counter_clockwise():
+    # a hexagon fan around vertex 0, faces given in scrambled order
+    F = np.array([[0, 1 + k, 1 + (k + 1) % 6] for k in (3, 0, 5, 1, 4, 2)])
+    fan = fans(F, 7)
+    corners = fan.corners[fan.start[0] : fan.start[1]]
+    nxt = F[:, [1, 2, 0]].ravel()[corners]
+    # consecutive neighbours go around counter-clockwise, starting at the lowest corner
+    steps = np.diff(nxt) % 6
+    assert steps.tolist() == [1, 1, 1, 1, 1] and not fan.boundary[0]
+    assert fan.boundary[1:].all()
+
+
+def test_boundary_fan_starts_at_the_boundary():
+    V, F = ex.peaks(5)
+    fan = fans(F, len(V))
+    corners = fan.corners[fan.start[12] - 0 : fan.start[13]]  # vertex 12 is interior (2, 2)
+    assert not fan.boundary[12] and len(corners) == 6
+    corner0 = fan.corners[fan.start[0] : fan.start[1]]
+    assert fan.boundary[0] and len(corner0) in (1, 2)
+
+
+def test_two_pieces_get_their_own_islands_without_overlap():
+    V1, F1, _ = ex.s_surface(30, 8)
+    V2, F2 = ex.peaks(11)
+    V = np.vstack([V1, V2 + 10])
+    F = np.vstack([F1, F2 + len(V1)])
+    r = parametrize(V, F)
+    assert r.n_islands == 2
+    assert set(r.face_island[: len(F1)]) == {r.face_island[0]} != set(r.face_island[len(F1) :])
+    boxes = [(r.uv[np.unique(f)].min(0), r.uv[np.unique(f)].max(0)) for f in (F1, F2 + len(V1))]
+    (lo1, hi1), (lo2, hi2) = boxes
+    assert (hi1 < lo2).any() or (hi2 < lo1).any()  # the boxes are apart along some axis
+    assert edge_length_error(V1, F1, r.uv) < 1e-9  # the developable piece stays exact
+
+
+def test_seam_splits_a_closed_tube_into_one_exact_island():
+    # an open cylinder (two boundary loops) with a seam along one ruling
+    n_around, n_up = 24, 6
+    a, z = np.meshgrid(np.arange(n_around) * 2 * np.pi / n_around, np.linspace(0, 1, n_up), indexing="ij")
+    V = np.stack([np.cos(a), np.sin(a), z], -1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(n_around), np.arange(n_up - 1), indexing="ij")
+    p, q = i * n_up + j, ((i + 1) % n_around) * n_up + j
+    F = np.concatenate([np.stack([p, q, q + 1], -1).reshape(-1, 3), np.stack([p, q + 1, p + 1], -1).reshape(-1, 3)])
+    seams = np.stack([np.arange(n_up - 1), np.arange(1, n_up)], 1)  # the ruling at angle 0
+    r = parametrize(V, F, seams=seams)
+    assert r.n_islands == 1 and r.cut_islands.size == 0 and not r.warnings
+    assert edge_length_error(V, F, r.corner_uv) < 1e-10
+    # the vertices on the seam have two different UVs
+    on_seam = np.unique(seams)
+    cu = r.corner_uv.reshape(-1, 2)
+    for v in on_seam[:2]:
+        assert len(np.unique(np.round(cu[F.ravel() == v], 9), axis=0)) == 2
+    # without the seam the tube is cut automatically, with a warning, and stays exact
+    r2 = parametrize(V, F)
+    assert r2.cut_islands.tolist() == [0] and r2.warnings
+    assert edge_length_error(V, F, r2.corner_uv) < 1e-10
+
+
+def test_sphere_is_cut_and_reported():
+    V, F = ex.sphere(2)
+    r = parametrize(V, F)
+    topo = build_topology(*validate(V, F))
+    assert topo.closed_islands.tolist() == [0] and topo.handle_islands.size == 0
+    assert len(r.cut_edges) > 0 and any("closed" in w for w in r.warnings)
+    assert np.isfinite(r.corner_uv).all()
+
+
+def test_torus_is_cut_along_two_short_loops():
+    V, F = ex.torus(40, 16)
+    topo = build_topology(*validate(V, F))
+    assert topo.handle_islands.tolist() == [0]
+    assert len(topo.cut_edges) == 40 + 16  # one loop around each way: the shortest cut graph
+    r = parametrize(V, F)
+    assert metrics.flipped(V, F, r.corner_uv) == 0
+
+
+def test_moebius_strip_is_cut_and_solved():
+    n = 40
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    w = np.array([-0.3, 0.0, 0.3])
+    tt, ww = np.meshgrid(t, w, indexing="ij")
+    rad = 1 + ww * np.cos(tt / 2)
+    V = np.stack([rad * np.cos(tt), rad * np.sin(tt), ww * np.sin(tt / 2)], -1).reshape(-1, 3)
+    F = []
+    for i in range(n):  # building a test mesh, 40 strips
+        j = (i + 1) % n
+        a, b = 3 * i + np.arange(3), 3 * j + (np.arange(3) if j else np.arange(3)[::-1])
+        F += [[a[k], b[k], b[k + 1]] for k in range(2)] + [[a[k], b[k + 1], a[k + 1]] for k in range(2)]
+    F = np.array(F)
+    topo = build_topology(*validate(V, F))
+    assert topo.nonorientable_islands.tolist() == [0]
+    r = parametrize(V, F)
+    assert np.isfinite(r.corner_uv).all() and r.cut_edges.size
+
+
+def test_inconsistent_face_orientation_is_repaired():
+    V, F = ex.peaks(21)
+    F2 = F.copy()
+    F2[::3] = F2[::3, ::-1]  # flip every third face
+    r1, r2 = parametrize(V, F), parametrize(V, F2)
+    assert r2.n_islands == 1 and not r2.warnings
+    np.testing.assert_allclose(
+        metrics.edge_lengths(V, F2, r2.corner_uv)[1], metrics.edge_lengths(V, F2, r1.uv[F2])[1], rtol=1e-9
+    )
+    # the majority orientation decides which way the layout faces
+    topo = build_topology(*validate(V, F2))
+    assert topo.flipped.sum() == len(F2[::3])
+
+
+def test_results_are_bit_identical_run_after_run():
+    V, F, _ = ex.s_surface_random(800, 7)
+    a, b = parametrize(V, F), parametrize(V, F)
+    assert np.array_equal(a.uv, b.uv) and np.array_equal(a.corner_uv, b.corner_uv)
