@@ -4,7 +4,7 @@ import numpy as np
 
 from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import metrics, parametrize
-from isoparam_addon.solver.mesh import build_topology, fans, validate
+from isoparam_addon.solver.mesh import HalfEdges, build_topology, fans
 
 from .conftest import edge_length_error
 
@@ -12,7 +12,7 @@ from .conftest import edge_length_error
 def test_fans_are_ordered_counter_clockwise():
     # a hexagon fan around vertex 0, faces given in scrambled order
     F = np.array([[0, 1 + k, 1 + (k + 1) % 6] for k in (3, 0, 5, 1, 4, 2)])
-    fan = fans(F, 7)
+    fan = fans(F, HalfEdges(F, 7).twin, 7)
     corners = fan.corners[fan.start[0] : fan.start[1]]
     nxt = F[:, [1, 2, 0]].ravel()[corners]
     # consecutive neighbours go around counter-clockwise, starting at the lowest corner
@@ -23,7 +23,7 @@ def test_fans_are_ordered_counter_clockwise():
 
 def test_boundary_fan_starts_at_the_boundary():
     V, F = ex.peaks(5)
-    fan = fans(F, len(V))
+    fan = fans(F, HalfEdges(F, len(V)).twin, len(V))
     corners = fan.corners[fan.start[12] - 0 : fan.start[13]]  # vertex 12 is interior (2, 2)
     assert not fan.boundary[12] and len(corners) == 6
     corner0 = fan.corners[fan.start[0] : fan.start[1]]
@@ -70,7 +70,7 @@ def test_seam_splits_a_closed_tube_into_one_exact_island():
 def test_sphere_is_cut_and_reported():
     V, F = ex.sphere(2)
     r = parametrize(V, F)
-    topo = build_topology(*validate(V, F))
+    topo = build_topology(V, F)[2]
     assert topo.closed_islands.tolist() == [0] and topo.handle_islands.size == 0
     assert len(r.cut_edges) > 0 and any("closed" in w for w in r.warnings)
     assert np.isfinite(r.corner_uv).all()
@@ -78,7 +78,7 @@ def test_sphere_is_cut_and_reported():
 
 def test_torus_is_cut_along_two_short_loops():
     V, F = ex.torus(40, 16)
-    topo = build_topology(*validate(V, F))
+    topo = build_topology(V, F)[2]
     assert topo.handle_islands.tolist() == [0]
     assert len(topo.cut_edges) == 40 + 16  # one loop around each way: the shortest cut graph
     r = parametrize(V, F)
@@ -98,7 +98,7 @@ def test_moebius_strip_is_cut_and_solved():
         a, b = 3 * i + np.arange(3), 3 * j + (np.arange(3) if j else np.arange(3)[::-1])
         F += [[a[k], b[k], b[k + 1]] for k in range(2)] + [[a[k], b[k + 1], a[k + 1]] for k in range(2)]
     F = np.array(F)
-    topo = build_topology(*validate(V, F))
+    topo = build_topology(V, F)[2]
     assert topo.nonorientable_islands.tolist() == [0]
     r = parametrize(V, F)
     assert np.isfinite(r.corner_uv).all() and r.cut_edges.size
@@ -114,7 +114,7 @@ def test_inconsistent_face_orientation_is_repaired():
         metrics.edge_lengths(V, F2, r2.corner_uv)[1], metrics.edge_lengths(V, F2, r1.uv[F2])[1], rtol=1e-9
     )
     # the majority orientation decides which way the layout faces
-    topo = build_topology(*validate(V, F2))
+    topo = build_topology(V, F2)[2]
     assert topo.flipped.sum() == len(F2[::3])
 
 

@@ -10,6 +10,7 @@ This package never imports bpy: it runs in plain CPython and inside Blender alik
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -17,10 +18,10 @@ import numpy as np
 from . import metrics
 from .align import fit_rotation_scale, orient_and_pack
 from .blocks import Islands
-from .embed import spectral_embedding
+from .embed import plan_elimination, spectral_embedding
 from .errors import InvalidMeshError, IsoparamError, SolverError
 from .local import local_flattening
-from .mesh import HalfEdges, Topology, build_topology, fans, validate
+from .mesh import Topology, build_topology, fans
 from .weights import reconstruction_weights
 
 __all__ = [
@@ -153,30 +154,28 @@ def parametrize(
     """
     t = {}
     t0 = time.perf_counter()
-    V, F = validate(vertices, faces)
-    topo = build_topology(V, F, seams)
-    # solve with the vertices numbered island by island
-    order = np.argsort(topo.vertex_island, kind="stable")
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    faces_i = rank[topo.faces]
-    X = V[topo.vertex_of[order]]
-    islands = Islands(topo.vertex_island[order], topo.n_islands)
-    he = HalfEdges(faces_i, len(X))
-    fan = fans(faces_i, len(X))
+    V, F, topo = build_topology(vertices, faces, seams)
+    faces_i = topo.faces
+    X = V[topo.vertex_of]
+    islands = Islands(topo.vertex_island, topo.n_islands)
+    he = topo.he
+    fan = fans(faces_i, he.twin, len(X))
     t1 = time.perf_counter()
-    patches = local_flattening(X, faces_i, fan)
-    t2 = time.perf_counter()
-    L, wstats = reconstruction_weights(X, faces_i, he.twin, patches, len(X))
-    t3 = time.perf_counter()
-    emb = spectral_embedding(L, X, islands, tol=tol, max_iter=max_iter)
+    with ThreadPoolExecutor(max_workers=1) as pool:  # the elimination plan needs no weights
+        plan = pool.submit(plan_elimination, X, he.edge_vertices, islands)
+        patches = local_flattening(X, faces_i, fan)
+        t2 = time.perf_counter()
+        L, wstats = reconstruction_weights(X, faces_i, he.twin, patches, len(X))
+        t3 = time.perf_counter()
+        plan = plan.result()
+    emb = spectral_embedding(L, X, islands, tol=tol, max_iter=max_iter, plan=plan)
     t4 = time.perf_counter()
     edges = he.edge_vertices
     length = np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
     Y, _, clipped = fit_rotation_scale(emb.coords, edges, length, islands.label[edges[:, 0]], islands)
     uv_i, flipped = orient_and_pack(Y, faces_i, topo.face_island, islands, pack=pack, margin=margin)
     t5 = time.perf_counter()
-    uv_split = uv_i[rank]
+    uv_split = uv_i
     corner_uv = uv_split[topo.corner_vertex]
     uv = np.zeros((len(V), 2))
     first = np.full(len(V), len(uv_split), dtype=np.int64)

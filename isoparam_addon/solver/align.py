@@ -80,7 +80,7 @@ def orient_and_pack(Y, faces, face_island, islands: Islands, pack: bool = True, 
     area = signed_areas(Y, faces)
     mirror = np.bincount(face_island, area, minlength=nI) < 0
     Y = Y.copy()
-    Y[islands.expand(mirror), 0] *= -1.0
+    Y[mirror[islands.label], 0] *= -1.0
     c = islands.mean(Y)
     Yc = Y - islands.expand(c)
     cov = islands.gram(Yc, Yc)

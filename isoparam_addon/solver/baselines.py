@@ -19,7 +19,7 @@ from scipy.sparse.linalg import splu
 from .align import fit_rotation_scale
 from .blocks import Islands
 from .local import local_flattening
-from .mesh import HalfEdges, build_topology, fans, unique_edges, validate
+from .mesh import HalfEdges, build_topology, fans, unique_edges
 from .weights import reconstruction_weights
 
 __all__ = ["isomap", "floater", "dense_paper", "reconstruction_matrix"]
@@ -87,15 +87,13 @@ def floater(V: np.ndarray, F: np.ndarray) -> np.ndarray:
 
 def reconstruction_matrix(V: np.ndarray, F: np.ndarray):
     """Steps 1-2 on a connected disk mesh: ``(L = I - W, X, faces)`` in our vertex order."""
-    V, F = validate(V, F)
-    topo = build_topology(V, F)
+    V, F, topo = build_topology(V, F)
     if topo.n_islands != 1 or topo.cut_islands.size:
         raise ValueError("reconstruction_matrix expects one disk-shaped island")
     X = V[topo.vertex_of]
     faces = topo.faces
-    he = HalfEdges(faces, len(X))
-    patches = local_flattening(X, faces, fans(faces, len(X)))
-    L, _ = reconstruction_weights(X, faces, he.twin, patches, len(X))
+    patches = local_flattening(X, faces, fans(faces, topo.he.twin, len(X)))
+    L, _ = reconstruction_weights(X, faces, topo.he.twin, patches, len(X))
     return L, X, faces, topo.vertex_of
 
 

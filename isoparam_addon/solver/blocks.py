@@ -5,6 +5,9 @@ per-island Gram matrix ``V_i^T W_i`` is one BLAS call for a large island and one
 product for all the small ones together, and a per-island change of basis ``V_i T_i``
 is a handful of vector operations. No loop runs over vertices; the loop over large
 islands is bounded by n / ``_LARGE``.
+
+``np.dot`` rather than ``@``: in numpy 1.26 (Blender's), ``(100000, 9) @ (9, 2)`` takes
+8 ms against 0.7 ms for ``np.dot`` (measured here).
 """
 
 from __future__ import annotations
@@ -72,7 +75,7 @@ class Islands:
             out += (self.small_indicator @ outer).reshape(self.n, p, q)
         for i in self.large if large else ():
             r = self.rows(i)
-            out[i] = A[r].T @ B[r]
+            out[i] = np.dot(A[r].T, B[r])
         return out
 
     def apply(self, V: np.ndarray, T: np.ndarray) -> np.ndarray:
@@ -87,9 +90,11 @@ class Islands:
             out[rows] = acc
         for i in self.large:
             r = self.rows(i)
-            out[r] = V[r] @ T[i]
+            out[r] = np.dot(V[r], T[i])
         return out
 
     def expand(self, x: np.ndarray) -> np.ndarray:
-        """Broadcast per-island values to rows."""
-        return x[self.label]
+        """Per-island values repeated for their rows (a broadcastable view for one island)."""
+        if self.n == 1:
+            return x[:1]
+        return np.repeat(x, self.size, axis=0)

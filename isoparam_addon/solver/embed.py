@@ -45,13 +45,14 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from .blocks import Islands
 from .ordering import nested_dissection
 
-__all__ = ["Embedding", "choose_pins", "spectral_embedding"]
+__all__ = ["Embedding", "Plan", "choose_pins", "plan_elimination", "spectral_embedding"]
 
 
 @dataclass
@@ -66,7 +67,8 @@ class Embedding:
         Ritz values of M for the two vectors (``~0`` on developable islands).
     converged : (n_islands,) bool
     change : (n_islands,) float64
-        Sine of the angle the subspace moved in the last iteration.
+        Sine of the angle the subspace moved in the last iteration (the error is about
+        this times the convergence rate).
     iterations : int
     timings : dict
     """
@@ -111,6 +113,50 @@ def choose_pins(X: np.ndarray, islands: Islands) -> np.ndarray:
     return np.stack([p0, p1, p2], axis=1)
 
 
+@dataclass
+class Plan:
+    """Where to pin and in which order to eliminate (depends on the mesh graph only).
+
+    Attributes
+    ----------
+    pins : (n_islands, 3) int64
+    free_order : (n - 3 n_islands,) int64
+        The free vertices in elimination order.
+    seconds : float
+    """
+
+    pins: np.ndarray
+    free_order: np.ndarray
+    seconds: float = 0.0
+
+
+def plan_elimination(X: np.ndarray, edges: np.ndarray, islands: Islands) -> Plan:
+    """Pins and a nested-dissection order from positions and mesh edges alone.
+
+    It needs neither Step 1 nor Step 2, so :func:`parametrize` runs it in a second thread
+    while they run. The pattern of ``L`` is the mesh's 1-ring graph (plus a few entries
+    for the paper's extra vertices, which the order ignores at no measurable cost).
+
+    Parameters
+    ----------
+    X : (n, 3) float64
+    edges : (e, 2) int64
+        Undirected mesh edges.
+    islands : Islands
+    """
+    t0 = time.perf_counter()
+    pins = choose_pins(X, islands)
+    n = len(X)
+    is_pin = np.zeros(n, dtype=bool)
+    is_pin[pins.ravel()] = True
+    free = np.flatnonzero(~is_pin)
+    rank = np.cumsum(~is_pin) - 1
+    keep = ~is_pin[edges[:, 0]] & ~is_pin[edges[:, 1]]
+    e = rank[edges[keep]]
+    order = free[nested_dissection(X[free], np.concatenate([e, e[:, ::-1]]))] if len(free) else free
+    return Plan(pins, order, time.perf_counter() - t0)
+
+
 class _PinnedLeastSquares:
     """One sparse LU that applies ``M_FF^{-1}`` and gives the pinned least-squares basis.
 
@@ -130,18 +176,14 @@ class _PinnedLeastSquares:
     apply ``M_FF^{-1}`` without ever forming M (whose conditioning is cond(L)^2).
     """
 
-    def __init__(self, L: sp.csr_matrix, X: np.ndarray, islands: Islands, pins: np.ndarray):
+    def __init__(self, L: sp.csr_matrix, islands: Islands, plan: Plan):
         n = L.shape[0]
         nI = islands.n
+        pins = plan.pins
         self.n, self.islands, self.pins, self.L = n, islands, pins, L.tocsr()
-        is_pin = np.zeros(n, dtype=bool)
-        is_pin[pins.ravel()] = True
-        free = np.flatnonzero(~is_pin)
-        self.nf = nf = len(free)
-        t0 = time.perf_counter()
-        Lc = L.tocsr()
-        A0 = Lc[free][:, free].tocoo()
-        self.fperm = free[nested_dissection(X[free], np.stack([A0.row, A0.col], axis=1))] if nf else free
+        self.fperm = plan.free_order
+        self.nf = nf = len(self.fperm)
+        Lc = self.L
         t1 = time.perf_counter()
         # rows: free vertices (elimination order), then the pins; columns: free, then B
         self.rows = np.concatenate([self.fperm, pins.ravel()])
@@ -152,15 +194,24 @@ class _PinnedLeastSquares:
         bcol = nf + 3 * islands.label[:, None] + np.arange(3)
         border = sp.csr_matrix((self.B.ravel(), (np.repeat(brow, 3), bcol.ravel())), shape=(n, n))
         A = (sp.hstack([Lc[self.rows][:, self.fperm], sp.csr_matrix((n, 3 * nI))]) + border).tocsc()
-        self.lu = splu(A, permc_spec="NATURAL")
+        self.lu = splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.1)
         t2 = time.perf_counter()
-        self.timings = {"ordering": t1 - t0, "factorization": t2 - t1}
-        self.seg = sp.csr_matrix((np.ones(n), (self.label, np.arange(n))), shape=(nI, n))
+        self.timings = {"ordering": plan.seconds, "factorization": t2 - t1}
         e3 = np.zeros((n, 3))
         e3[nf + np.arange(3 * nI), np.tile(np.arange(3), nI)] = 1.0  # B columns, k-th of each island
         self.Tz = self.lu.solve(e3, trans="T")  # A^{-T} E_B
-        self.Z = self.lu.solve(self.Tz)  # S E_B
+        # the pinned least-squares basis: h_k = argmin ||L x|| with x = e_k on the pins.
+        # Its free part is -M_FF^{-1} L_F^T r_k with r_k = L[:, P] e_k, and since
+        # [L_F^T r; 0] = A^T r - [0; B^T r], the first solve is r - A^{-T} E_B (B^T r).
+        H = np.zeros((n, 3))
+        H[pins, np.arange(3)] = 1.0
+        r = self.L @ H  # L[:, P] e_k for every island at once, (n, 3)
+        rhs = r[self.rows] - self._per_island(self.Tz, islands.gram(self.B, r))
+        both = self.lu.solve(np.hstack([self.Tz, rhs]))  # one call for S E_B and the basis
+        self.Z = both[:, :3]  # S E_B
         self.Zbb = self.Z[nf:].reshape(nI, 3, 3)  # S_BB per island
+        H[self.fperm] = -self._finish(both[:, 3:])
+        self.H = H
 
     def _per_island(self, cols: np.ndarray, coef: np.ndarray) -> np.ndarray:
         """Row-wise ``cols[r] . coef[island(r)]``: (n, 3), (n_islands, 3, p) -> (n, p)."""
@@ -175,71 +226,61 @@ class _PinnedLeastSquares:
     def solve_mff(self, b: np.ndarray) -> np.ndarray:
         """``[M_FF^{-1} b_F; 0]`` for b (n, p)."""
         out = np.zeros_like(b)
-        if self.nf:
-            rhs = np.zeros((self.n, b.shape[1]))
-            rhs[: self.nf] = b[self.fperm]
-            out[self.fperm] = self._finish(self.lu.solve(self.lu.solve(rhs, trans="T")))
+        rhs = np.zeros((self.n, b.shape[1]))
+        rhs[: self.nf] = b[self.fperm]
+        out[self.fperm] = self._finish(self.lu.solve(self.lu.solve(rhs, trans="T")))
         return out
 
-    def harmonic_basis(self) -> np.ndarray:
-        """``H`` (n, 3): ``h_k = argmin ||L x||`` subject to x = e_k on each island's pins.
 
-        The free part is ``-M_FF^{-1} L_F^T r_k`` with ``r_k = L[:, P] e_k``; since
-        ``[L_F^T r; 0] = A^T r - [0; B^T r]``, the first solve is replaced by
-        ``r - A^{-T} E_B (B^T r)``.
-        """
-        H = np.zeros((self.n, 3))
-        for k in range(3):
-            H[self.pins[:, k], k] = 1.0
-        if self.nf:
-            r = self.L @ H  # L[:, P] e_k for every island at once, (n, 3)
-            Btr = self.islands.gram(self.B, r)  # per island (3, 3): B^T r
-            rr = r[self.rows]
-            rhs = rr - self._per_island(self.Tz, Btr)
-            H[self.fperm] = -self._finish(self.lu.solve(rhs))
-        return H
+_REMAINDER = 1e-8  # smallest kept part of a column outside the previous blocks (relative)
 
 
-def _basis(blocks, islands: Islands, drop: float = 1e-12) -> np.ndarray:
+def _basis(blocks, islands: Islands, drop: float = 1e-10) -> np.ndarray:
     """Per-island orthonormal basis of the blocks' columns, orthogonal to the constant.
 
-    Classical Gram-Schmidt, twice (CGS2), one column at a time: a column whose part
-    outside the previous ones is small but real (a correction of relative size 1e-7
-    near convergence) is kept and normalised, not lost as it would be by an eigenvalue
-    cut-off on the Gram matrix. A column is dropped on an island (set to zero there)
-    when less than ``drop`` of it survives.
+    Block classical Gram-Schmidt, twice (CGS2), against everything kept so far, then an
+    orthonormalisation inside the block from its Gram matrix (SVQB) that drops
+    directions with eigenvalue below ``drop`` relative to the block's largest. The first
+    block must have orthonormal columns already or be the only one. Because each block
+    is projected before it is normalised, a small but real correction survives down to
+    ``_REMAINDER`` of its column (below that the remainder is mostly rounding and would
+    not stay orthogonal); directions dependent *within* a block are dropped (set to zero
+    on that island). Everything is BLAS-3 on large islands.
     """
-    cols: list[np.ndarray] = []
-    lab = islands.label
+    kept: np.ndarray | None = None
     for B in blocks:
         B = B - islands.expand(islands.mean(B))
-        for j in range(B.shape[1]):  # at most ~8 columns
-            v = B[:, j : j + 1]
-            n0 = np.sqrt(islands.sum(v * v)[:, 0])
+        d0 = np.einsum("ijj->ij", islands.gram(B, B))
+        if kept is not None:
             for _ in range(2):
-                if cols:
-                    Q = np.hstack(cols)
-                    v = v - islands.apply(Q, islands.gram(Q, v))
-            n1 = np.sqrt(islands.sum(v * v)[:, 0])
-            ok = (n1 > drop * n0) & (n1 > 0)
-            cols.append(np.where(ok[lab, None], v / np.where(ok, n1, 1.0)[lab, None], 0.0))
-    return np.hstack(cols)
+                B = B - islands.apply(kept, islands.gram(kept, B))
+        g = islands.gram(B, B)
+        d = np.einsum("ijj->ij", g)
+        # a remainder below 1e-8 of the column is mostly rounding: it would not stay orthogonal
+        alive = (d > _REMAINDER**2 * d0) & (d > 0)
+        s = np.where(alive, 1.0 / np.sqrt(np.where(alive, d, 1.0)), 0.0)
+        lam, U = np.linalg.eigh(s[:, :, None] * g * s[:, None, :])
+        ok = lam > drop * np.maximum(lam[:, -1:], 1e-300)
+        T = s[:, :, None] * U * np.where(ok, 1.0 / np.sqrt(np.where(ok, lam, 1.0)), 0.0)[:, None, :]
+        Q = islands.apply(B, T)
+        kept = Q if kept is None else np.hstack([kept, Q])
+    return kept
 
 
 def _ritz(L, Q: np.ndarray, islands: Islands, p: int):
     """Rayleigh-Ritz for ``min ||L x|| / ||x||`` over span(Q), Q orthonormal per island.
 
     Returns the p best vectors (orthonormal per island), L times them, and their Ritz
-    values. On a large island the Ritz vectors are the right singular vectors of ``L Q``
+    values (``inf`` where the space is still smaller than p). On a large island the Ritz vectors are the right singular vectors of ``L Q``
     (thin SVD), so the tiny Ritz values keep their relative accuracy (``eps ||L Q||``
     on sigma, not ``eps ||L Q||^2`` on sigma^2); the many small islands share one batched
     eigensolve of ``(L Q)^T (L Q)``, where the eigenvalues are not that small.
     """
     LQ = L @ Q
     k = Q.shape[1]
-    alive = islands.sum(Q * Q) > 0.5  # (n_islands, k): columns dropped by _basis are zero
+    alive = np.einsum("ijj->ij", islands.gram(Q, Q)) > 0.5  # (n_islands, k): columns dropped by _basis are zero
     coef = np.zeros((islands.n, k, p))
-    mu = np.zeros((islands.n, p))
+    mu = np.full((islands.n, p), np.inf)
     if islands.small_rows.size:
         K = islands.gram(LQ, LQ, large=False)
         K = 0.5 * (K + K.transpose(0, 2, 1))
@@ -247,11 +288,13 @@ def _ritz(L, Q: np.ndarray, islands: Islands, p: int):
         K[:, np.arange(k), np.arange(k)] += np.where(alive, 0.0, dead)
         w, c = np.linalg.eigh(K)
         q = min(p, k)
-        coef[:, :, :q], mu[:, :q] = c[:, :, :q], w[:, :q]
-    for i in islands.large:  # one thin SVD per large island
+        coef[:, :, :q] = c[:, :, :q]
+        mu[:, :q] = np.where(alive.sum(axis=1)[:, None] > np.arange(q), w[:, :q], np.inf)
+    for i in islands.large:  # one small SVD per large island
         r = islands.rows(i)
         cols = np.flatnonzero(alive[i])
-        _, sig, vt = np.linalg.svd(LQ[r][:, cols], full_matrices=False)
+        R = np.linalg.qr(LQ[r][:, cols], mode="r")  # same singular values, 9x9 SVD
+        _, sig, vt = np.linalg.svd(R)
         q = min(p, len(cols))  # fewer columns than wanted only before the block has grown
         coef[i] = 0.0
         coef[i][cols, :q] = vt[::-1][:q].T
@@ -266,6 +309,7 @@ def spectral_embedding(
     tol: float = 1e-8,
     max_iter: int = 40,
     block: int = 2,
+    plan: Plan | None = None,
 ) -> Embedding:
     """Two lowest non-constant eigenvectors of ``M = L^T L`` per island (Step 3).
 
@@ -277,17 +321,24 @@ def spectral_embedding(
         Vertex positions (for pins and the fill-reducing order).
     islands : Islands
     tol : float
-        Stop when the subspace moves by less than this (sine of the angle).
+        Stop when the subspace moves, or is predicted from the observed linear rate to
+        move next, by less than this (sine of the angle).
     max_iter : int
+    block : int
+        Ritz vectors carried (2 are wanted; more did not pay off on our meshes).
+    plan : Plan, optional
+        From :func:`plan_elimination`; computed here if not given.
 
     Returns
     -------
     Embedding
     """
     t0 = time.perf_counter()
-    pins = choose_pins(X, islands)
-    pls = _PinnedLeastSquares(L, X, islands, pins)
-    H = pls.harmonic_basis()
+    if plan is None:
+        A0 = L.tocoo()
+        plan = plan_elimination(X, np.stack([A0.row, A0.col], axis=1), islands)
+    pls = _PinnedLeastSquares(L, islands, plan)
+    H = pls.H
     t1 = time.perf_counter()
     Y, LY, mu = _ritz(L, _basis([H], islands), islands, block)
     done = np.zeros(islands.n, dtype=bool)
@@ -296,7 +347,7 @@ def spectral_embedding(
     iterations = 0
     for iterations in range(1, max_iter + 1):  # inverse iterations, a handful per mesh  # noqa: B007
         # preconditioned residual with the exact inverse on the free block
-        R = L.T @ LY - Y * mu[islands.label]
+        R = L.T @ LY - Y * np.where(np.isfinite(mu), mu, 0.0)[islands.label, : Y.shape[1]]
         W = pls.solve_mff(R)
         Y_new, LY_new, mu_new = _ritz(L, _basis([Y, H, W, Y_prev], islands), islands, block)
         Y_prev = Y
@@ -304,16 +355,19 @@ def spectral_embedding(
         moved = Y_new[:, :2] - islands.apply(Y[:, :2], cross)
         step = np.sqrt(islands.sum(moved**2).sum(axis=1))
         live = ~done
+        # linear convergence: the next step would move about step * (step / last step)
+        rate = np.where(np.isfinite(change) & (step < change), step / np.where(np.isfinite(change), change, 1.0), 1.0)
+        predicted = step * rate
         change[live] = step[live]
         keep_old = islands.expand(done)[:, None]
         Y = np.where(keep_old, Y, Y_new)
         LY = np.where(keep_old, LY, LY_new)
         mu[live] = mu_new[live]
-        done |= step < tol
+        done |= (step < tol) | (predicted < tol)
         if done.all():
             break
     t2 = time.perf_counter()
     coords = Y[:, :2] * np.sqrt(islands.expand(islands.size.astype(np.float64)))[:, None]
     timings = dict(pls.timings)
-    timings.update(pinned_basis=t1 - t0 - sum(pls.timings.values()), iterations=t2 - t1)
+    timings.update(pinned_basis=t1 - t0 - pls.timings["factorization"], iterations=t2 - t1)
     return Embedding(coords, mu[:, :2], done, change, iterations, timings)

@@ -29,6 +29,7 @@ __all__ = ["Patch", "corner_angles", "local_flattening"]
 
 _NEXT = np.array([1, 2, 0])
 _PREV = np.array([2, 0, 1])
+_CHUNK = 8192  # vertices per block of stacked fans: ~3 MB per (K+1, K+1, chunk) array
 
 
 @dataclass
@@ -63,14 +64,14 @@ def corner_angles(X: np.ndarray, faces: np.ndarray):
     vertex of face f. ``atan2(|e1 x e2|, e1 . e2)`` is accurate for tiny and obtuse angles
     and gives 0, not NaN, for zero-length edges.
     """
-    P = [X[faces[:, k]] for k in range(3)]
-    E = [P[(k + 1) % 3] - P[k] for k in range(3)]  # edge k runs from corner k to k+1
-    length = np.stack([np.sqrt((e * e).sum(axis=1)) for e in E], axis=1)
-    n = np.cross(E[0], E[1])  # twice the area vector, shared by the three corners
-    double_area = np.sqrt((n * n).sum(axis=1))
-    dots = np.stack([-(E[(k + 2) % 3] * E[k]).sum(axis=1) for k in range(3)], axis=1)
+    P = X[faces]  # (m, 3, 3)
+    E = P[:, _NEXT] - P  # edge k runs from corner k to k+1
+    length = np.sqrt(np.einsum("fkd,fkd->fk", E, E))
+    n = np.cross(E[:, 0], E[:, 1])  # twice the area vector, shared by the three corners
+    double_area = np.sqrt(np.einsum("fd,fd->f", n, n))
+    dots = -np.einsum("fkd,fkd->fk", E[:, _PREV], E)
     angle = np.arctan2(double_area[:, None], dots)
-    return angle.ravel(), length.ravel(), length[:, [2, 0, 1]].ravel()
+    return angle.ravel(), length.ravel(), length[:, _PREV].ravel()
 
 
 def _orthonormalize(Z: np.ndarray) -> np.ndarray:
@@ -124,6 +125,27 @@ def _mds_top2(B: np.ndarray, start: np.ndarray, tol: float = 1e-12, max_iter: in
     return Y
 
 
+def _interior_fans(theta: np.ndarray, length: np.ndarray, total: np.ndarray) -> np.ndarray:
+    """MDS coordinates (G, K+1, 2) of interior fans with neighbours at polar (length, theta).
+
+    ``total`` is ``alpha_sum`` of Eq. (2); Eq. (3) takes the shorter way around.
+    """
+    th = np.ascontiguousarray(theta.T)  # (K, G): vertex index last
+    ln = np.ascontiguousarray(length.T)
+    K, G = th.shape
+    diff = np.abs(th[:, None, :] - th[None, :, :])  # alpha'_ab
+    short = np.minimum(diff, total - diff)  # Eq. (3)
+    Gm = np.zeros((K + 1, K + 1, G))
+    Gm[1:, 1:] = ln[:, None, :] * ln[None, :, :] * np.cos(short)  # l_a l_b cos(alpha_ab)
+    B = Gm - Gm.mean(axis=0, keepdims=True)
+    B -= B.mean(axis=1, keepdims=True)  # B = J G J, Eq. (5)
+    ang = th * (2 * np.pi / np.where(total > 0, total, 2 * np.pi))
+    start = np.zeros((K + 1, 2, G))
+    start[1:, 0], start[1:, 1] = ln * np.cos(ang), ln * np.sin(ang)
+    start -= start.mean(axis=0, keepdims=True)
+    return np.moveaxis(_mds_top2(B, start), 2, 0)
+
+
 def local_flattening(X: np.ndarray, faces: np.ndarray, fan: Fans) -> list[Patch]:
     """Flatten the 1-ring of every vertex (Step 1).
 
@@ -163,20 +185,9 @@ def local_flattening(X: np.ndarray, faces: np.ndarray, fan: Fans) -> list[Patch]
                 Y[:, 1:, 0] = length * np.cos(theta)
                 Y[:, 1:, 1] = length * np.sin(theta)
             else:
-                total = alpha.sum(axis=1)  # alpha_sum of Eq. (2)
-                th = np.ascontiguousarray(theta.T)  # (K, G): vertex index last
-                ln = np.ascontiguousarray(length.T)
-                diff = np.abs(th[:, None, :] - th[None, :, :])  # alpha'_ab
-                short = np.minimum(diff, total - diff)  # Eq. (3)
-                p = K + 1
-                Gm = np.zeros((p, p, len(vid)))
-                Gm[1:, 1:] = ln[:, None, :] * ln[None, :, :] * np.cos(short)
-                B = Gm - Gm.mean(axis=0, keepdims=True)
-                B -= B.mean(axis=1, keepdims=True)  # B = J G J, Eq. (5)
-                ang = th * (2 * np.pi / np.where(total > 0, total, 2 * np.pi))
-                start = np.zeros((p, 2, len(vid)))
-                start[1:, 0], start[1:, 1] = ln * np.cos(ang), ln * np.sin(ang)
-                start -= start.mean(axis=0, keepdims=True)
-                Y = np.moveaxis(_mds_top2(B, start), 2, 0)
+                Y = np.empty((len(vid), K + 1, 2))
+                for lo in range(0, len(vid), _CHUNK):  # chunks that stay in cache
+                    sl = slice(lo, lo + _CHUNK)
+                    Y[sl] = _interior_fans(theta[sl], length[sl], alpha[sl].sum(axis=1))
             patches.append(Patch(vid, nb, C, Y, bool(boundary)))
     return patches

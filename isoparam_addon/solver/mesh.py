@@ -40,6 +40,15 @@ _PREV = np.array([2, 0, 1])
 def validate(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     """Check a triangle mesh and return float64 / int64 copies.
 
+    See :func:`_check`, which also returns the half-edges and wedges it built.
+    """
+    V, F, _, _ = _check(vertices, faces)
+    return V, F
+
+
+def _check(vertices, faces):
+    """Check a triangle mesh and return float64 / int64 copies.
+
     Parameters
     ----------
     vertices : (n, 3) array_like of float
@@ -49,6 +58,10 @@ def validate(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     -------
     V : (n, 3) float64, F : (m, 3) int64
         Fresh arrays; the caller's arrays are never modified.
+    he : HalfEdges
+        Of F.
+    wedge : (3m,) int64
+        Wedge label of every corner (joined across every interior edge).
 
     Raises
     ------
@@ -97,11 +110,13 @@ def validate(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
         pairs = edges.edge_vertices[edges.overfull]
         raise offenders("non_manifold_edge", "are shared by more than two faces", "edge", edges.overfull, edges=pairs)
     wedge = _wedge_labels(F, edges, cut=np.zeros(edges.n_edges, dtype=bool))
-    per_vertex = np.bincount(np.unique(F.ravel() * (3 * len(F)) + wedge) // (3 * len(F)), minlength=n)
+    owner = np.empty(int(wedge.max()) + 1, dtype=np.int64)
+    owner[wedge] = F.ravel()  # the vertex of each wedge
+    per_vertex = np.bincount(owner, minlength=n)
     bad = np.flatnonzero(per_vertex > 1)
     if bad.size:
         raise offenders("non_manifold_vertex", "join faces that share no edge around them (bow-tie)", "vertex", bad)
-    return V, F
+    return V, F, edges, wedge
 
 
 # --------------------------------------------------------------------------- half-edges
@@ -145,6 +160,20 @@ class HalfEdges:
         pair = np.flatnonzero(~start[1:] & (self.edge_count[edge_sorted[1:]] == 2))
         self.twin[order[pair]] = order[pair + 1]
         self.twin[order[pair + 1]] = order[pair]
+
+    def relabel(self, rank: np.ndarray) -> HalfEdges:
+        """The same half-edges after renaming vertex v to ``rank[v]`` (faces unchanged)."""
+        out = object.__new__(HalfEdges)
+        out.__dict__.update(self.__dict__)
+        ev = rank[self.edge_vertices]
+        out.edge_vertices = np.sort(ev, axis=1)
+        return out
+
+    def consistent(self, F: np.ndarray) -> bool:
+        """Whether every interior edge is traversed in opposite directions by its faces."""
+        h = np.flatnonzero(self.twin >= 0)
+        nxt = 3 * (h // 3) + _NEXT[h % 3]
+        return bool(np.all(F.ravel()[self.twin[h]] == F.ravel()[nxt]))
 
 
 def unique_edges(F: np.ndarray) -> np.ndarray:
@@ -216,11 +245,15 @@ def _split(F: np.ndarray, n: int, cut: np.ndarray, he: HalfEdges | None = None):
 class Topology:
     """The mesh as the solver sees it: split along seams and cuts, oriented per island.
 
+    Split vertices are numbered island by island (each island a contiguous range).
+
     Attributes
     ----------
     faces : (m, 3) int64
         Split-vertex indices, each island consistently oriented (counter-clockwise in the
         final layout).
+    he : HalfEdges
+        Half-edges of ``faces``.
     corner_vertex : (m, 3) int64
         Split vertex of each input corner, in the input corner order.
     vertex_of : (ns,) int64
@@ -240,6 +273,7 @@ class Topology:
     """
 
     faces: np.ndarray
+    he: HalfEdges
     corner_vertex: np.ndarray
     vertex_of: np.ndarray
     face_island: np.ndarray
@@ -336,30 +370,53 @@ def _island_counts(Fs, ns, he, face_island, n_islands):
     loop_island = np.full(lab.max() + 1, -1, dtype=np.int64)
     loop_island[lab[on_bnd]] = v_isl[on_bnd]
     n_loops = np.bincount(loop_island[loops], minlength=n_islands)
-    return chi, n_loops, v_isl, m
+    return chi, n_loops
 
 
-def build_topology(V: np.ndarray, F: np.ndarray, seams=None) -> Topology:
-    """Split along seams, find islands, orient them and cut every non-disk into a disk.
+def build_topology(vertices, faces, seams=None) -> tuple[np.ndarray, np.ndarray, Topology]:
+    """Validate, split along seams, find islands, orient them, cut non-disks into disks.
 
     Parameters
     ----------
-    V : (n, 3) float64, F : (m, 3) int64
-        A mesh that passed :func:`validate`.
+    vertices : (n, 3) array_like of float
+    faces : (m, 3) array_like of int
     seams : (k, 2) int, optional
         Vertex pairs of edges to cut along (Blender's UV seams).
+
+    Returns
+    -------
+    V : (n, 3) float64, F : (m, 3) int64
+        Validated copies of the input.
+    topo : Topology
+
+    The common case (no seams, consistently oriented disks) reuses the half-edges built
+    for validation and renumbers nothing.
     """
+    V, F, he0, wedge = _check(vertices, faces)
     n, m = len(V), len(F)
-    he0 = HalfEdges(F, n)
     seam = _seam_mask(he0, n, seams)
-    Fs, vertex_of = _split(F, n, seam, he0)
+    if seam.any():
+        Fs, vertex_of = _split(F, n, seam, he0)
+        he = HalfEdges(Fs, len(vertex_of))
+    else:  # validation guarantees one wedge per vertex: split vertices are the used ones
+        used = np.zeros(n, dtype=bool)
+        used[F.ravel()] = True
+        if used.all():
+            Fs, vertex_of, he = F, np.arange(n), he0
+        else:
+            vertex_of = np.flatnonzero(used)
+            rank = np.cumsum(used) - 1
+            Fs, he = rank[F], he0.relabel(rank)
+    del wedge
     ns = len(vertex_of)
-    he = HalfEdges(Fs, ns)
     face_island = _face_components(m, he, np.zeros(he.n_edges, dtype=bool))
     n_islands = int(face_island.max()) + 1
     area = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
-    flip, orientable = _orientation(Fs, he, face_island, n_islands, area)
-    chi, n_loops, _, _ = _island_counts(Fs, ns, he, face_island, n_islands)
+    if he.consistent(Fs):
+        flip, orientable = np.zeros(m, dtype=bool), np.ones(n_islands, dtype=bool)
+    else:  # pragma: no branch
+        flip, orientable = _orientation(Fs, he, face_island, n_islands, area)
+    chi, n_loops = _island_counts(Fs, ns, he, face_island, n_islands)
     disk = orientable & (chi == 1) & (n_loops == 1)
     empty = np.zeros(0, dtype=np.int64)
     cut_edges, cut_islands = np.zeros((0, 2), dtype=np.int64), empty
@@ -379,15 +436,27 @@ def build_topology(V: np.ndarray, F: np.ndarray, seams=None) -> Topology:
         Fs, vertex_of = Fs2, vertex_of[vertex_of2]
         ns = len(vertex_of)
         he = HalfEdges(Fs, ns)
-        chi, n_loops, _, _ = _island_counts(Fs, ns, he, face_island, n_islands)
+        chi, n_loops = _island_counts(Fs, ns, he, face_island, n_islands)
         still = np.flatnonzero((chi != 1) | (n_loops != 1))
         if still.size:  # pragma: no cover - a bug guard, the cut graph makes disks
             raise RuntimeError(f"cutting islands {still.tolist()} did not give disks")
-    oriented = np.where(flip[:, None], Fs[:, ::-1], Fs)
+    # number the split vertices island by island
     vertex_island = np.empty(ns, dtype=np.int64)
     vertex_island[Fs.ravel()] = np.repeat(face_island, 3)
-    return Topology(
+    if np.any(np.diff(vertex_island) < 0):
+        order = np.argsort(vertex_island, kind="stable")
+        rank = np.empty_like(order)
+        rank[order] = np.arange(ns)
+        Fs, vertex_of, vertex_island = rank[Fs], vertex_of[order], vertex_island[order]
+        he = he.relabel(rank)
+    if flip.any():
+        oriented = np.where(flip[:, None], Fs[:, ::-1], Fs)
+        he_oriented = HalfEdges(oriented, ns)
+    else:
+        oriented, he_oriented = Fs, he
+    return V, F, Topology(
         faces=oriented,
+        he=he_oriented,
         corner_vertex=Fs,
         vertex_of=vertex_of,
         face_island=face_island,
@@ -601,47 +670,36 @@ class Fans:
         return np.diff(self.start)
 
 
-def fans(faces: np.ndarray, ns: int) -> Fans:
-    """Order the corners around every vertex by pointer jumping (list ranking).
+def fans(faces: np.ndarray, twin: np.ndarray, ns: int) -> Fans:
+    """Order the corners around every vertex, counter-clockwise.
 
-    In an oriented manifold, the corner of face f at vertex v is followed,
-    counter-clockwise, by the corner whose face starts where f ends: if f reads
-    (v, a, b), the next face reads (v, b, c). Interior fans are cycles, broken at their
-    lowest corner; boundary fans start at the corner with no predecessor.
+    In an oriented manifold the face after f = (v, a, b) counter-clockwise around v holds
+    the half-edge v -> b, the twin of f's half-edge b -> v; a half-edge starts at the
+    corner of its first vertex, so ``next corner = twin[previous half-edge of f]``. Every
+    fan is walked from its head (the corner after the boundary, or any corner of an
+    interior fan) one step per round for all vertices at once: as many rounds as the
+    largest valence, one gather per corner in total.
     """
     flat = faces.ravel()
     m3 = flat.size
     c = np.arange(m3)
-    v = flat
-    a = faces[:, _NEXT].ravel()
-    b = faces[:, _PREV].ravel()
-    key = v * np.int64(ns) + a
-    order = np.argsort(key, kind="stable")
-    sk = key[order]
-    want = v * np.int64(ns) + b
-    pos = np.minimum(np.searchsorted(sk, want), m3 - 1)
-    succ = np.where(sk[pos] == want, order[pos], -1)
-    pred = np.full(m3, -1, dtype=np.int64)
-    has = succ >= 0
-    pred[succ[has]] = c[has]
-    boundary = np.zeros(ns, dtype=bool)
-    boundary[v[pred < 0]] = True
-    head = np.full(ns, m3, dtype=np.int64)
-    np.minimum.at(head, v, c)
-    cyc = ~boundary[v] & (c == head[v])
-    pred[c[cyc]] = -1
-    rank = (pred >= 0).astype(np.int64)
-    ptr = pred.copy()
-    while True:  # log2(max valence) rounds
-        live = ptr >= 0
-        if not live.any():
-            break
-        nxt_rank = rank.copy()
-        nxt_rank[live] += rank[ptr[live]]
-        nxt_ptr = ptr.copy()
-        nxt_ptr[live] = ptr[ptr[live]]
-        rank, ptr = nxt_rank, nxt_ptr
-    corners = np.lexsort((rank, v))
+    succ = twin[3 * (c // 3) + _PREV[c % 3]]  # -1 at the end of a boundary fan
+    count = np.bincount(flat, minlength=ns)
     start = np.zeros(ns + 1, dtype=np.int64)
-    start[1:] = np.cumsum(np.bincount(v, minlength=ns))
+    start[1:] = np.cumsum(count)
+    head = np.empty(ns, dtype=np.int64)
+    head[flat] = c  # any corner of each vertex
+    first = twin < 0  # the half-edge v -> a of corner c is on the boundary: nothing before c
+    boundary = np.zeros(ns, dtype=bool)
+    boundary[flat[first]] = True
+    head[flat[first]] = c[first]
+    corners = np.full(m3, -1, dtype=np.int64)
+    verts = np.flatnonzero(count > 0)
+    cur = head[verts]
+    for k in range(int(count.max())):  # rounds = largest valence; all vertices per round
+        corners[start[verts] + k] = cur
+        more = count[verts] > k + 1
+        verts, cur = verts[more], succ[cur[more]]
+    if np.any(corners < 0):  # pragma: no cover - validation rules out broken fans
+        raise RuntimeError("fans: some corners are not reachable around their vertex")
     return Fans(corners=corners, start=start, boundary=boundary)

@@ -3,9 +3,11 @@
 SciPy's SuperLU orders columns with COLAMD or MMD, which on a 2D mesh leave roughly
 twice the fill of nested dissection and take about twice as long to factor (measured:
 1.2 s against 0.47 s on a 100k-vertex grid). A surface mesh is two-dimensional, so
-cutting it recursively with planes gives small separators: each domain is split at the
-centroid across its principal axis, the vertices on one side that touch the other side
-form the separator, and separators are numbered after the two halves they separate.
+cutting it recursively with planes gives small separators: each domain is split at its
+centroid across the coordinate axis of largest variance, the vertices along the cut on
+the side that has fewer of them form the separator, and separators are numbered after
+the two halves they separate. (Principal axes instead of coordinate axes, or medians
+instead of centroids, gave 1-8% more fill on the meshes we measured.)
 
 All domains of one level are split together with array operations, so the cost is a
 few passes over the edges per level, about 20 levels for a million vertices.
@@ -32,7 +34,7 @@ def _postorder(level: np.ndarray, node: np.ndarray, depth: int) -> np.ndarray:
     return node * size + before + size - 1
 
 
-def nested_dissection(points: np.ndarray, edges: np.ndarray, leaf: int = 64) -> np.ndarray:
+def nested_dissection(points: np.ndarray, edges: np.ndarray, leaf: int = 32) -> np.ndarray:
     """Order vertices so that the LU of a mesh matrix fills in little.
 
     Parameters
@@ -68,23 +70,23 @@ def nested_dissection(points: np.ndarray, edges: np.ndarray, leaf: int = 64) -> 
         act = np.flatnonzero(active & split[dom])
         d = dom[act]
         p = points[act]
-        cnt = np.maximum(size, 1)[:, None]
-        mean = np.stack([np.bincount(d, p[:, c], minlength=n_dom) for c in range(3)], 1) / cnt
-        q = p - mean[d]
-        cov = np.empty((n_dom, 3, 3))
-        for a in range(3):
-            for b in range(a, 3):
-                cov[:, a, b] = cov[:, b, a] = np.bincount(d, q[:, a] * q[:, b], minlength=n_dom)
-        axis = np.zeros((n_dom, 3))
-        axis[split] = np.linalg.eigh(cov[split])[1][:, :, -1]
-        ax = axis[d]
+        cnt = np.maximum(size, 1)
+        mean = np.stack([np.bincount(d, p[:, c], minlength=n_dom) for c in range(3)], 1) / cnt[:, None]
+        spread = np.stack([np.bincount(d, p[:, c] ** 2, minlength=n_dom) for c in range(3)], 1) / cnt[:, None]
+        axis = np.argmax(spread - mean**2, axis=1)  # the coordinate with the largest variance
         side = np.zeros(n, dtype=np.int64)
-        side[act] = (q[:, 0] * ax[:, 0] + q[:, 1] * ax[:, 1] + q[:, 2] * ax[:, 2]) > 0
-        # separator: vertices on side 1 with a neighbour on side 0 in the same domain
+        side[act] = p[np.arange(len(p)), axis[d]] > mean[d, axis[d]]
+        # the vertices along the cut, on whichever side has fewer of them
         sa, sb = side[ea], side[eb]
         cross = (sa != sb) & split[dom[ea]]
-        sep = np.zeros(n, dtype=bool)
-        sep[np.where(sa[cross] == 1, ea[cross], eb[cross])] = True
+        one = np.where(sa[cross] == 1, ea[cross], eb[cross])
+        zero = np.where(sa[cross] == 0, ea[cross], eb[cross])
+        in1 = np.zeros(n, dtype=bool)
+        in0 = np.zeros(n, dtype=bool)
+        in1[one] = True
+        in0[zero] = True
+        use1 = np.bincount(dom[in1], minlength=n_dom) <= np.bincount(dom[in0], minlength=n_dom)
+        sep = np.where(use1[dom], in1, in0)
         level_of[sep] = depth
         node_of[sep] = dom[sep]
         active &= ~sep

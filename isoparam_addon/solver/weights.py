@@ -41,14 +41,16 @@ def _affine_weights(P: np.ndarray, reg: float = 0.0):
 
     Returns ``(W (G, m), degenerate (G,) bool)``.
     """
-    scale = np.sqrt((P * P).sum(axis=2).mean(axis=1))
-    scale = np.where(scale > 0, scale, 1.0)
-    P = P / scale[:, None, None]
-    p = P.mean(axis=1)
-    Q = P - p[:, None, :]
-    cxx = (Q[:, :, 0] ** 2).sum(axis=1)
-    cyy = (Q[:, :, 1] ** 2).sum(axis=1)
-    cxy = (Q[:, :, 0] * Q[:, :, 1]).sum(axis=1)
+    x, y = P[:, :, 0], P[:, :, 1]
+    m = P.shape[1]
+    scale = np.sqrt((x * x + y * y).mean(axis=1))
+    inv = 1.0 / np.where(scale > 0, scale, 1.0)
+    x, y = x * inv[:, None], y * inv[:, None]
+    px, py = x.mean(axis=1), y.mean(axis=1)
+    qx, qy = x - px[:, None], y - py[:, None]
+    cxx = (qx * qx).sum(axis=1)
+    cyy = (qy * qy).sum(axis=1)
+    cxy = (qx * qy).sum(axis=1)
     half_trace = 0.5 * (cxx + cyy)
     det = cxx * cyy - cxy * cxy
     degenerate = ~(det > _DEGENERATE * half_trace**2)
@@ -57,11 +59,9 @@ def _affine_weights(P: np.ndarray, reg: float = 0.0):
         cxx, cyy = cxx + delta, cyy + delta
         det = cxx * cyy - cxy * cxy
     safe = np.where(degenerate & (reg == 0), 1.0, det)
-    # u = C^{-1} p
-    ux = (cyy * p[:, 0] - cxy * p[:, 1]) / safe
-    uy = (cxx * p[:, 1] - cxy * p[:, 0]) / safe
-    m = P.shape[1]
-    W = 1.0 / m - (Q[:, :, 0] * ux[:, None] + Q[:, :, 1] * uy[:, None])
+    ux = (cyy * px - cxy * py) / safe  # u = C^{-1} p
+    uy = (cxx * py - cxy * px) / safe
+    W = 1.0 / m - (qx * ux[:, None] + qy * uy[:, None])
     return W, degenerate
 
 
