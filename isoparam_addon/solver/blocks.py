@@ -84,10 +84,8 @@ class Islands:
         if self.small_rows.size:
             rows = self.small_rows
             lab = self.label[rows]
-            acc = np.zeros((len(rows), T.shape[2]))
-            for a in range(V.shape[1]):  # p columns, p <= ~10
-                acc += V[rows, a : a + 1] * T[lab, a, :]
-            out[rows] = acc
+            Tl = np.take(T, lab, axis=0)
+            out[rows] = np.einsum("rk,rkq->rq", V[rows], Tl)
         for i in self.large:
             r = self.rows(i)
             out[r] = np.dot(V[r], T[i])

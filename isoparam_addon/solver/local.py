@@ -62,15 +62,34 @@ def corner_angles(X: np.ndarray, faces: np.ndarray):
     Returns ``(angle, to_next, to_prev)``, each (3m,) float64: the angle at corner
     ``c = 3f + k`` in [0, pi], and the lengths from its vertex to the next and previous
     vertex of face f. ``atan2(|e1 x e2|, e1 . e2)`` is accurate for tiny and obtuse angles
-    and gives 0, not NaN, for zero-length edges.
+    and gives 0, not NaN, for zero-length edges. Works on coordinate columns, in chunks
+    of faces that stay in cache.
     """
-    P = X[faces]  # (m, 3, 3)
-    E = P[:, _NEXT] - P  # edge k runs from corner k to k+1
-    length = np.sqrt(np.einsum("fkd,fkd->fk", E, E))
-    n = np.cross(E[:, 0], E[:, 1])  # twice the area vector, shared by the three corners
-    double_area = np.sqrt(np.einsum("fd,fd->f", n, n))
-    dots = -np.einsum("fkd,fkd->fk", E[:, _PREV], E)
-    angle = np.arctan2(double_area[:, None], dots)
+    m = len(faces)
+    angle = np.empty((m, 3))
+    length = np.empty((m, 3))
+    # gathers from 1-D columns: numpy's row gather X[idx] on an (n, 3) array is 5-20x slower
+    x, y, z = (np.ascontiguousarray(X[:, c]) for c in range(3))
+    corner = [np.ascontiguousarray(faces[:, k]) for k in range(3)]
+    step = 1 << 16
+    for lo in range(0, m, step):  # chunks of 65536 faces
+        f = [c[lo : lo + step] for c in corner]
+        ex, ey, ez = [], [], []
+        for k in range(3):  # edge k runs from corner k to corner k+1
+            a, b = f[k], f[(k + 1) % 3]
+            ex.append(x[b] - x[a])
+            ey.append(y[b] - y[a])
+            ez.append(z[b] - z[a])
+        nx = ey[0] * ez[1] - ez[0] * ey[1]  # twice the area vector, shared by the corners
+        ny = ez[0] * ex[1] - ex[0] * ez[1]
+        nz = ex[0] * ey[1] - ey[0] * ex[1]
+        double_area = np.sqrt(nx * nx + ny * ny + nz * nz)
+        sl = slice(lo, lo + len(f[0]))
+        for k in range(3):
+            j = (k + 2) % 3  # the edge arriving at corner k
+            dot = -(ex[j] * ex[k] + ey[j] * ey[k] + ez[j] * ez[k])
+            angle[sl, k] = np.arctan2(double_area, dot)
+            length[sl, k] = np.sqrt(ex[k] * ex[k] + ey[k] * ey[k] + ez[k] * ez[k])
     return angle.ravel(), length.ravel(), length[:, _PREV].ravel()
 
 
@@ -133,10 +152,12 @@ def _interior_fans(theta: np.ndarray, length: np.ndarray, total: np.ndarray) -> 
     th = np.ascontiguousarray(theta.T)  # (K, G): vertex index last
     ln = np.ascontiguousarray(length.T)
     K, G = th.shape
-    diff = np.abs(th[:, None, :] - th[None, :, :])  # alpha'_ab
+    a, b = np.triu_indices(K, 1)
+    diff = th[b] - th[a]  # alpha'_ab, b > a: theta is increasing
     short = np.minimum(diff, total - diff)  # Eq. (3)
     Gm = np.zeros((K + 1, K + 1, G))
-    Gm[1:, 1:] = ln[:, None, :] * ln[None, :, :] * np.cos(short)  # l_a l_b cos(alpha_ab)
+    Gm[1 + a, 1 + b] = Gm[1 + b, 1 + a] = ln[a] * ln[b] * np.cos(short)  # l_a l_b cos(alpha_ab)
+    Gm[1 + np.arange(K), 1 + np.arange(K)] = ln * ln
     B = Gm - Gm.mean(axis=0, keepdims=True)
     B -= B.mean(axis=1, keepdims=True)  # B = J G J, Eq. (5)
     ang = th * (2 * np.pi / np.where(total > 0, total, 2 * np.pi))

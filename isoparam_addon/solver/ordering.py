@@ -41,8 +41,8 @@ def nested_dissection(points: np.ndarray, edges: np.ndarray, leaf: int = 32) -> 
     ----------
     points : (n, 3) float64
         Vertex positions (only used to choose cutting planes).
-    edges : (e, 2) int64
-        The symmetric sparsity pattern, one row per off-diagonal pair.
+    edges : (e, 2) int
+        The symmetric sparsity pattern, each undirected pair once (either direction).
     leaf : int
         Domains at most this large are not split further.
 
@@ -58,8 +58,9 @@ def nested_dissection(points: np.ndarray, edges: np.ndarray, leaf: int = 32) -> 
     level_of = np.full(n, -1, dtype=np.int64)
     node_of = np.zeros(n, dtype=np.int64)
     active = np.ones(n, dtype=bool)
-    one_way = edges[:, 0] < edges[:, 1]
-    ea, eb = edges[one_way, 0], edges[one_way, 1]  # edges inside one live domain
+    e = np.asarray(edges)
+    e = e[e[:, 0] != e[:, 1]]
+    ea, eb = e[:, 0].astype(np.int32), e[:, 1].astype(np.int32)  # edges inside live, split domains
     depth = 0
     while True:
         n_dom = 1 << depth
@@ -71,20 +72,23 @@ def nested_dissection(points: np.ndarray, edges: np.ndarray, leaf: int = 32) -> 
         d = dom[act]
         p = points[act]
         cnt = np.maximum(size, 1)
-        mean = np.stack([np.bincount(d, p[:, c], minlength=n_dom) for c in range(3)], 1) / cnt[:, None]
-        spread = np.stack([np.bincount(d, p[:, c] ** 2, minlength=n_dom) for c in range(3)], 1) / cnt[:, None]
-        axis = np.argmax(spread - mean**2, axis=1)  # the coordinate with the largest variance
-        side = np.zeros(n, dtype=np.int64)
-        side[act] = p[np.arange(len(p)), axis[d]] > mean[d, axis[d]]
+        mean = np.empty((n_dom, 3))
+        var = np.empty((n_dom, 3))
+        for c in range(3):  # three coordinates
+            mean[:, c] = np.bincount(d, p[:, c], minlength=n_dom) / cnt
+            var[:, c] = np.bincount(d, p[:, c] ** 2, minlength=n_dom) / cnt - mean[:, c] ** 2
+        axis = np.argmax(var, axis=1)  # the coordinate with the largest variance
+        ad = axis[d]
+        side = np.zeros(n, dtype=np.int8)
+        side[act] = p[np.arange(len(p)), ad] > mean[d, ad]
         # the vertices along the cut, on whichever side has fewer of them
         sa, sb = side[ea], side[eb]
-        cross = (sa != sb) & split[dom[ea]]
-        one = np.where(sa[cross] == 1, ea[cross], eb[cross])
-        zero = np.where(sa[cross] == 0, ea[cross], eb[cross])
+        cross = sa != sb
+        ca, cb, csa = ea[cross], eb[cross], sa[cross]
         in1 = np.zeros(n, dtype=bool)
         in0 = np.zeros(n, dtype=bool)
-        in1[one] = True
-        in0[zero] = True
+        in1[np.where(csa == 1, ca, cb)] = True
+        in0[np.where(csa == 1, cb, ca)] = True
         use1 = np.bincount(dom[in1], minlength=n_dom) <= np.bincount(dom[in0], minlength=n_dom)
         sep = np.where(use1[dom], in1, in0)
         level_of[sep] = depth
@@ -92,7 +96,12 @@ def nested_dissection(points: np.ndarray, edges: np.ndarray, leaf: int = 32) -> 
         active &= ~sep
         dom = 2 * dom + side
         depth += 1
-        keep = ~cross & active[ea] & active[eb]
+        # keep the edges that stay inside one live domain that will be split again
+        next_split = np.bincount(dom[active], minlength=2 * n_dom) > leaf
+        keep = ~cross
+        keep &= active[ea]
+        keep &= active[eb]
+        keep &= next_split[dom[ea]]
         ea, eb = ea[keep], eb[keep]
     level_of[active] = depth
     node_of[active] = dom[active]
