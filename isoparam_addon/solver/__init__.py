@@ -20,6 +20,7 @@ from .align import fit_rotation_scale, orient_and_pack
 from .blocks import Islands
 from .embed import plan_elimination, spectral_embedding
 from .errors import InvalidMeshError, IsoparamError, SolverError
+from ._memory import retained
 from .local import local_flattening
 from .mesh import Topology, build_topology, fans
 from .weights import reconstruction_weights
@@ -152,6 +153,42 @@ def parametrize(
     InvalidMeshError
         For invalid input (see :func:`mesh.validate`); nothing is modified in place.
     """
+    with retained(enabled=_is_large(vertices)):
+        return _parametrize(vertices, faces, seams, pack=pack, margin=margin, tol=tol, max_iter=max_iter)
+
+
+_THREAD_FROM = 20_000  # below this a second thread costs more than it saves
+
+
+class _Inline:
+    """A stand-in for a one-worker pool that runs the task when its result is asked for."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def submit(self, fn, *args):
+        return _Deferred(fn, args)
+
+
+class _Deferred:
+    def __init__(self, fn, args):
+        self.fn, self.args = fn, args
+
+    def result(self):
+        return self.fn(*self.args)
+
+
+def _is_large(vertices) -> bool:
+    try:
+        return len(vertices) >= 200_000
+    except TypeError:
+        return False
+
+
+def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter) -> Parametrization:
     t = {}
     t0 = time.perf_counter()
     V, F, topo = build_topology(vertices, faces, seams)
@@ -161,7 +198,8 @@ def parametrize(
     he = topo.he
     fan = fans(faces_i, he.twin, len(X))
     t1 = time.perf_counter()
-    with ThreadPoolExecutor(max_workers=1) as pool:  # the elimination plan needs no weights
+    # the elimination plan needs no weights: on large meshes it runs beside Steps 1-2
+    with ThreadPoolExecutor(max_workers=1) if len(X) > _THREAD_FROM else _Inline() as pool:
         plan = pool.submit(plan_elimination, X, he.edge_vertices, islands)
         patches = local_flattening(X, faces_i, fan)
         t2 = time.perf_counter()
