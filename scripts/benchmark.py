@@ -100,8 +100,11 @@ def main(argv=None) -> int:
         out = subprocess.run(cmd, capture_output=True, text=True, check=True)
         res = json.loads(out.stdout.strip().splitlines()[-1])
         results.append(res)
-        print(f"{res['vertices']:>9} vertices: {res['median']['total']:.3f} s, peak {res['peak_rss_gib']:.2f} GiB",
-              file=sys.stderr, flush=True)
+        print(
+            f"{res['vertices']:>9} vertices: {res['median']['total']:.3f} s, peak {res['peak_rss_gib']:.2f} GiB",
+            file=sys.stderr,
+            flush=True,
+        )
     header = "| step (median s) | " + " | ".join(f"{r['vertices']:,}" for r in results) + " |"
     lines = [header, "|---|" + "---|" * len(results)]
     for key, label in STEPS:
@@ -117,8 +120,11 @@ def main(argv=None) -> int:
     if len(nv) > 1:
         local = np.diff(np.log(tt)) / np.diff(np.log(nv))
         overall = np.polyfit(np.log(nv), np.log(tt), 1)[0]
-        growth = ("growth exponent of total time: " + ", ".join(f"{g:.2f}" for g in local)
-                  + f" between consecutive sizes; {overall:.2f} fitted over all")
+        growth = (
+            "growth exponent of total time: "
+            + ", ".join(f"{g:.2f}" for g in local)
+            + f" between consecutive sizes; {overall:.2f} fitted over all"
+        )
     table = "\n".join(lines) + ("\n\n" + growth if growth else "")
     print(f"mesh: {args.mesh}\n\n{table}")
     out = ROOT / args.out

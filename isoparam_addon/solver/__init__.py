@@ -16,13 +16,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import metrics
+from ._memory import retained
 from .align import fit_rotation_scale, orient_and_pack
 from .blocks import Islands
 from .embed import plan_elimination, spectral_embedding
 from .errors import InvalidMeshError, IsoparamError, SolverError
-from ._memory import retained
 from .local import local_flattening
-from .mesh import Topology, build_topology, fans
+from .mesh import Topology, build_topology
 from .weights import reconstruction_weights
 
 __all__ = [
@@ -196,7 +196,7 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter) -> Para
     X = V[topo.vertex_of]
     islands = Islands(topo.vertex_island, topo.n_islands)
     he = topo.he
-    fan = fans(faces_i, he.twin, len(X))
+    fan = topo.fans
     t1 = time.perf_counter()
     # the elimination plan needs no weights: on large meshes it runs beside Steps 1-2
     with ThreadPoolExecutor(max_workers=1) if len(X) > _THREAD_FROM else _Inline() as pool:

@@ -37,8 +37,10 @@ def fit_rotation_scale(Y_I, edges, length, edge_island, islands: Islands):
     clipped : (n_islands,) bool
         Islands whose fitted A was not positive definite and was clipped.
     """
-    d = Y_I[edges[:, 0]] - Y_I[edges[:, 1]]
-    rows = np.stack([d[:, 0] ** 2, 2.0 * d[:, 0] * d[:, 1], d[:, 1] ** 2], axis=1)  # Eq. (17)
+    u, v = np.ascontiguousarray(Y_I[:, 0]), np.ascontiguousarray(Y_I[:, 1])
+    a, b = np.ascontiguousarray(edges[:, 0]), np.ascontiguousarray(edges[:, 1])
+    du, dv = u[a] - u[b], v[a] - v[b]  # 1-D gathers: row gathers of (n, 2) arrays are slow
+    rows = np.stack([du * du, 2.0 * du * dv, dv * dv], axis=1)  # Eq. (17)
     target = length**2
     nI = islands.n
     normal = np.empty((nI, 3, 3))
@@ -61,8 +63,10 @@ def fit_rotation_scale(Y_I, edges, length, edge_island, islands: Islands):
 
 def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Signed area of each triangle of a 2D layout, (m,) float64 (positive = CCW)."""
-    a, b, c = uv[faces[:, 0]], uv[faces[:, 1]], uv[faces[:, 2]]
-    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    u, v = np.ascontiguousarray(uv[:, 0]), np.ascontiguousarray(uv[:, 1])
+    a, b, c = (np.ascontiguousarray(faces[:, k]) for k in range(3))
+    ua, va = u[a], v[a]
+    return 0.5 * ((u[b] - ua) * (v[c] - va) - (v[b] - va) * (u[c] - ua))
 
 
 def orient_and_pack(Y, faces, face_island, islands: Islands, pack: bool = True, margin: float = 0.02):
@@ -91,13 +95,11 @@ def orient_and_pack(Y, faces, face_island, islands: Islands, pack: bool = True, 
     skew = islands.sum(Yr[:, :1] ** 3)[:, 0]
     turn = np.where(skew < 0, -1.0, 1.0)
     Yr *= islands.expand(turn)[:, None]
-    flipped = signed_areas(Yr, faces) <= 0
+    flipped = np.where(mirror[face_island], -area, area) <= 0  # rotations keep the signs
     if not pack:
         return Yr, flipped
-    lo = np.full((nI, 2), np.inf)
-    hi = np.full((nI, 2), -np.inf)
-    np.minimum.at(lo, islands.label, Yr)
-    np.maximum.at(hi, islands.label, Yr)
+    lo = np.minimum.reduceat(Yr, islands.start[:-1], axis=0)  # islands are contiguous row blocks
+    hi = np.maximum.reduceat(Yr, islands.start[:-1], axis=0)
     size = hi - lo
     gap = margin * np.sqrt(max(float(np.prod(size, axis=1).sum()), 1e-300))
     offset = _shelves(size, gap)

@@ -19,7 +19,7 @@ from scipy.sparse.linalg import splu
 from .align import fit_rotation_scale
 from .blocks import Islands
 from .local import local_flattening
-from .mesh import HalfEdges, build_topology, fans, unique_edges
+from .mesh import HalfEdges, build_topology, unique_edges
 from .weights import reconstruction_weights
 
 __all__ = ["isomap", "floater", "dense_paper", "reconstruction_matrix"]
@@ -92,7 +92,7 @@ def reconstruction_matrix(V: np.ndarray, F: np.ndarray):
         raise ValueError("reconstruction_matrix expects one disk-shaped island")
     X = V[topo.vertex_of]
     faces = topo.faces
-    patches = local_flattening(X, faces, fans(faces, topo.he.twin, len(X)))
+    patches = local_flattening(X, faces, topo.fans)
     L, _ = reconstruction_weights(X, faces, topo.he.twin, patches, len(X))
     return L, X, faces, topo.vertex_of
 

@@ -45,7 +45,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
@@ -282,14 +281,15 @@ def _ritz(L, Q: np.ndarray, islands: Islands, p: int):
     """Rayleigh-Ritz for ``min ||L x|| / ||x||`` over span(Q), Q orthonormal per island.
 
     Returns the p best vectors (orthonormal per island), L times them, and their Ritz
-    values (``inf`` where the space is still smaller than p). On a large island the Ritz vectors are the right singular vectors of ``L Q``
-    (thin SVD), so the tiny Ritz values keep their relative accuracy (``eps ||L Q||``
-    on sigma, not ``eps ||L Q||^2`` on sigma^2); the many small islands share one batched
-    eigensolve of ``(L Q)^T (L Q)``, where the eigenvalues are not that small.
+    values (``inf`` where the space is still smaller than p). On a large island the Ritz
+    vectors are the right singular vectors of ``L Q`` (QR, then a 9x9 SVD), so the tiny
+    Ritz values keep their relative accuracy (``eps ||L Q||`` on sigma, not
+    ``eps ||L Q||^2`` on sigma^2); the many small islands share one batched eigensolve of
+    ``(L Q)^T (L Q)``, where the eigenvalues are not that small.
     """
     LQ = L @ Q
     k = Q.shape[1]
-    alive = np.einsum("ijj->ij", islands.gram(Q, Q)) > 0.5  # (n_islands, k): columns dropped by _basis are zero
+    alive = np.einsum("ijj->ij", islands.gram(Q, Q)) > 0.5  # columns _basis dropped are zero
     coef = np.zeros((islands.n, k, p))
     mu = np.full((islands.n, p), np.inf)
     if islands.small_rows.size:
@@ -367,7 +367,8 @@ def spectral_embedding(
         step = np.sqrt(islands.sum(moved**2).sum(axis=1))
         live = ~done
         # linear convergence: the next step would move about step * (step / last step)
-        rate = np.where(np.isfinite(change) & (step < change), step / np.where(np.isfinite(change), change, 1.0), 1.0)
+        last = np.where(np.isfinite(change), change, 1.0)
+        rate = np.where(np.isfinite(change) & (step < change), step / last, 1.0)
         predicted = step * rate
         change[live] = step[live]
         keep_old = islands.expand(done)[:, None]

@@ -54,7 +54,7 @@ def _s_map(t: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 _S_T = 1.5 * np.pi  # t in [-3pi/2, 3pi/2]: arc length 3 pi
-_S_W = 2.0
+_S_W = 5.0  # the height of Roweis & Saul's scurve.m (sklearn's make_s_curve uses 2)
 
 
 def s_surface(nt: int = 50, nw: int = 12):

@@ -60,8 +60,8 @@ def _check(vertices, faces):
         Fresh arrays; the caller's arrays are never modified.
     he : HalfEdges
         Of F.
-    wedge : (3m,) int64
-        Wedge label of every corner (joined across every interior edge).
+    fan : Fans or None
+        The ordered fans of F when F is consistently oriented.
 
     Raises
     ------
@@ -109,14 +109,18 @@ def _check(vertices, faces):
     if edges.overfull.size:
         pairs = edges.edge_vertices[edges.overfull]
         raise offenders("non_manifold_edge", "are shared by more than two faces", "edge", edges.overfull, edges=pairs)
-    wedge = _wedge_labels(F, edges, cut=np.zeros(edges.n_edges, dtype=bool))
-    owner = np.empty(int(wedge.max()) + 1, dtype=np.int64)
-    owner[wedge] = F.ravel()  # the vertex of each wedge
-    per_vertex = np.bincount(owner, minlength=n)
-    bad = np.flatnonzero(per_vertex > 1)
+    if edges.consistent(F):  # walking the fans finds bow-ties, and the fans are reused
+        fan = fans(F, edges.twin, n)
+        bad = fan.broken
+    else:  # corners joined across interior edges, whatever the orientation
+        fan = None
+        wedge = _wedge_labels(F, edges, cut=np.zeros(edges.n_edges, dtype=bool))
+        owner = np.empty(int(wedge.max()) + 1, dtype=np.int64)
+        owner[wedge] = F.ravel()  # the vertex of each wedge
+        bad = np.flatnonzero(np.bincount(owner, minlength=n) > 1)
     if bad.size:
         raise offenders("non_manifold_vertex", "join faces that share no edge around them (bow-tie)", "vertex", bad)
-    return V, F, edges, wedge
+    return V, F, edges, fan
 
 
 # --------------------------------------------------------------------------- half-edges
@@ -254,6 +258,8 @@ class Topology:
         final layout).
     he : HalfEdges
         Half-edges of ``faces``.
+    fans : Fans
+        Ordered 1-rings of ``faces``.
     corner_vertex : (m, 3) int64
         Split vertex of each input corner, in the input corner order.
     vertex_of : (ns,) int64
@@ -274,6 +280,7 @@ class Topology:
 
     faces: np.ndarray
     he: HalfEdges
+    fans: Fans
     corner_vertex: np.ndarray
     vertex_of: np.ndarray
     face_island: np.ndarray
@@ -351,7 +358,6 @@ def _orientation(F, he, face_island, n_islands, area, tree_only=None):
 
 def _island_counts(Fs, ns, he, face_island, n_islands):
     """Euler characteristic and number of boundary loops of each island."""
-    m = len(Fs)
     v_isl = np.full(ns, -1, dtype=np.int64)
     v_isl[Fs.ravel()] = np.repeat(face_island, 3)
     nv = np.bincount(v_isl[v_isl >= 0], minlength=n_islands)
@@ -392,7 +398,7 @@ def build_topology(vertices, faces, seams=None) -> tuple[np.ndarray, np.ndarray,
     The common case (no seams, consistently oriented disks) reuses the half-edges built
     for validation and renumbers nothing.
     """
-    V, F, he0, wedge = _check(vertices, faces)
+    V, F, he0, fan0 = _check(vertices, faces)
     n, m = len(V), len(F)
     seam = _seam_mask(he0, n, seams)
     if seam.any():
@@ -407,7 +413,6 @@ def build_topology(vertices, faces, seams=None) -> tuple[np.ndarray, np.ndarray,
             vertex_of = np.flatnonzero(used)
             rank = np.cumsum(used) - 1
             Fs, he = rank[F], he0.relabel(rank)
-    del wedge
     ns = len(vertex_of)
     face_island = _face_components(m, he, np.zeros(he.n_edges, dtype=bool))
     n_islands = int(face_island.max()) + 1
@@ -454,21 +459,28 @@ def build_topology(vertices, faces, seams=None) -> tuple[np.ndarray, np.ndarray,
         he_oriented = HalfEdges(oriented, ns)
     else:
         oriented, he_oriented = Fs, he
-    return V, F, Topology(
-        faces=oriented,
-        he=he_oriented,
-        corner_vertex=Fs,
-        vertex_of=vertex_of,
-        face_island=face_island,
-        vertex_island=vertex_island,
-        n_islands=n_islands,
-        flipped=flip,
-        cut_edges=cut_edges,
-        cut_islands=cut_islands,
-        closed_islands=reasons["closed"],
-        handle_islands=reasons["handle"],
-        multi_boundary_islands=reasons["multi"],
-        nonorientable_islands=reasons["nonorientable"],
+    unchanged = fan0 is not None and oriented is F
+    fan = fan0 if unchanged else fans(oriented, he_oriented.twin, ns)
+    return (
+        V,
+        F,
+        Topology(
+            faces=oriented,
+            he=he_oriented,
+            fans=fan,
+            corner_vertex=Fs,
+            vertex_of=vertex_of,
+            face_island=face_island,
+            vertex_island=vertex_island,
+            n_islands=n_islands,
+            flipped=flip,
+            cut_edges=cut_edges,
+            cut_islands=cut_islands,
+            closed_islands=reasons["closed"],
+            handle_islands=reasons["handle"],
+            multi_boundary_islands=reasons["multi"],
+            nonorientable_islands=reasons["nonorientable"],
+        ),
     )
 
 
@@ -659,11 +671,14 @@ class Fans:
     start : (ns + 1,) int64
         ``corners[start[v]:start[v + 1]]`` is the fan of vertex v.
     boundary : (ns,) bool
+    broken : (k,) int64
+        Vertices whose faces do not form one fan (non-manifold); empty after validation.
     """
 
     corners: np.ndarray
     start: np.ndarray
     boundary: np.ndarray
+    broken: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def n_faces(self) -> np.ndarray:
@@ -699,7 +714,14 @@ def fans(faces: np.ndarray, twin: np.ndarray, ns: int) -> Fans:
     for k in range(int(count.max())):  # rounds = largest valence; all vertices per round
         corners[start[verts] + k] = cur
         more = count[verts] > k + 1
-        verts, cur = verts[more], succ[cur[more]]
-    if np.any(corners < 0):  # pragma: no cover - validation rules out broken fans
-        raise RuntimeError("fans: some corners are not reachable around their vertex")
-    return Fans(corners=corners, start=start, boundary=boundary)
+        verts, cur = verts[more], cur[more]
+        ok = cur >= 0
+        cur = np.where(ok, succ[np.where(ok, cur, 0)], -1)
+    # a vertex whose faces form more than one fan is not walked completely: some corner
+    # is missing or repeated
+    seen = np.bincount(corners[corners >= 0], minlength=m3)
+    bad = np.zeros(ns, dtype=bool)
+    bad[flat[seen != 1]] = True
+    filled = corners >= 0
+    bad[np.repeat(np.arange(ns), count)[~filled]] = True
+    return Fans(corners=corners, start=start, boundary=boundary, broken=np.flatnonzero(bad))
