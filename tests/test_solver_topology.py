@@ -122,3 +122,14 @@ def test_results_are_bit_identical_run_after_run():
     V, F, _ = ex.s_surface_random(800, 7)
     a, b = parametrize(V, F), parametrize(V, F)
     assert np.array_equal(a.uv, b.uv) and np.array_equal(a.corner_uv, b.corner_uv)
+
+
+def test_bow_ties_can_be_split_instead_of_rejected():
+    # two triangles touching at vertex 0, as a selection in Blender can leave them
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]], dtype=float)
+    F = np.array([[0, 1, 2], [0, 3, 4]])
+    r = parametrize(V, F, split_bowties=True)
+    assert r.n_islands == 2
+    assert np.isfinite(r.corner_uv).all()
+    d = metrics.edge_lengths(V, F, r.corner_uv)
+    np.testing.assert_allclose(d[1], d[0], rtol=1e-12)

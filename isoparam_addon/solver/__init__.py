@@ -127,6 +127,7 @@ def parametrize(
     margin: float = 0.02,
     tol: float = 1e-8,
     max_iter: int = 40,
+    split_bowties: bool = False,
 ) -> Parametrization:
     """Unwrap a triangle mesh with Sun & Hancock's isometric parametrization.
 
@@ -143,6 +144,9 @@ def parametrize(
         Gap between packed islands, as a fraction of the square root of their total area.
     tol, max_iter :
         Convergence of Step 3 (sine of the subspace change) and its iteration cap.
+    split_bowties : bool
+        Split vertices whose faces form several fans (bow-ties; faces touching at one
+        vertex go to different islands, as in Blender) instead of raising.
 
     Returns
     -------
@@ -154,7 +158,9 @@ def parametrize(
         For invalid input (see :func:`mesh.validate`); nothing is modified in place.
     """
     with retained(enabled=_is_large(vertices)):
-        return _parametrize(vertices, faces, seams, pack=pack, margin=margin, tol=tol, max_iter=max_iter)
+        return _parametrize(
+            vertices, faces, seams, pack=pack, margin=margin, tol=tol, max_iter=max_iter, split_bowties=split_bowties
+        )
 
 
 _THREAD_FROM = 20_000  # below this a second thread costs more than it saves
@@ -188,10 +194,10 @@ def _is_large(vertices) -> bool:
         return False
 
 
-def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter) -> Parametrization:
+def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_bowties) -> Parametrization:
     t = {}
     t0 = time.perf_counter()
-    V, F, topo = build_topology(vertices, faces, seams)
+    V, F, topo = build_topology(vertices, faces, seams, split_bowties)
     faces_i = topo.faces
     X = V[topo.vertex_of]
     islands = Islands(topo.vertex_island, topo.n_islands)

@@ -46,7 +46,7 @@ def validate(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     return V, F
 
 
-def _check(vertices, faces):
+def _check(vertices, faces, split_bowties: bool = False):
     """Check a triangle mesh and return float64 / int64 copies.
 
     Parameters
@@ -118,8 +118,10 @@ def _check(vertices, faces):
         owner = np.empty(int(wedge.max()) + 1, dtype=np.int64)
         owner[wedge] = F.ravel()  # the vertex of each wedge
         bad = np.flatnonzero(np.bincount(owner, minlength=n) > 1)
-    if bad.size:
+    if bad.size and not split_bowties:
         raise offenders("non_manifold_vertex", "join faces that share no edge around them (bow-tie)", "vertex", bad)
+    if bad.size:
+        fan = None  # the fans of a bow-tie vertex are split into separate vertices later
     return V, F, edges, fan
 
 
@@ -379,7 +381,7 @@ def _island_counts(Fs, ns, he, face_island, n_islands):
     return chi, n_loops
 
 
-def build_topology(vertices, faces, seams=None) -> tuple[np.ndarray, np.ndarray, Topology]:
+def build_topology(vertices, faces, seams=None, split_bowties: bool = False):
     """Validate, split along seams, find islands, orient them, cut non-disks into disks.
 
     Parameters
@@ -388,6 +390,10 @@ def build_topology(vertices, faces, seams=None) -> tuple[np.ndarray, np.ndarray,
     faces : (m, 3) array_like of int
     seams : (k, 2) int, optional
         Vertex pairs of edges to cut along (Blender's UV seams).
+    split_bowties : bool
+        Give a vertex whose faces form several fans one copy per fan (faces that share
+        only a vertex end up in different islands, as in Blender's unwrap) instead of
+        raising ``InvalidMeshError``.
 
     Returns
     -------
@@ -398,10 +404,10 @@ def build_topology(vertices, faces, seams=None) -> tuple[np.ndarray, np.ndarray,
     The common case (no seams, consistently oriented disks) reuses the half-edges built
     for validation and renumbers nothing.
     """
-    V, F, he0, fan0 = _check(vertices, faces)
+    V, F, he0, fan0 = _check(vertices, faces, split_bowties)
     n, m = len(V), len(F)
     seam = _seam_mask(he0, n, seams)
-    if seam.any():
+    if seam.any() or (split_bowties and fan0 is None):
         Fs, vertex_of = _split(F, n, seam, he0)
         he = HalfEdges(Fs, len(vertex_of))
     else:  # validation guarantees one wedge per vertex: split vertices are the used ones

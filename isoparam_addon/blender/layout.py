@@ -1,0 +1,136 @@
+"""Where unwrapped islands go in UV space: aspect, pins, in place, normalisation.
+
+Pure numpy (no bpy), per-island work as segment sums: a mesh with 10,000 islands costs
+the same handful of array operations as a mesh with one.
+
+All arrays are per triangle corner: ``uv (t, 3, 2)``, ``island (t,)``, ``locked (t, 3)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["similarity_fit", "place"]
+
+
+def _sums(island, values, n):
+    """Per-island sums of per-corner values: (t, 3, ...) -> (n, ...)."""
+    flat = values.reshape(-1, *values.shape[2:]) if values.ndim > 2 else values.ravel()
+    idx = np.repeat(island, 3)
+    if flat.ndim == 1:
+        return np.bincount(idx, flat, minlength=n)
+    return np.stack([np.bincount(idx, flat[:, j], minlength=n) for j in range(flat.shape[1])], axis=1)
+
+
+def similarity_fit(src, dst, island, weight, n, scale=True):
+    """Per-island rotation (no reflection), uniform scale and shift taking src onto dst.
+
+    Least squares (Umeyama in 2D, closed form) over corners with ``weight`` 1.
+
+    Parameters
+    ----------
+    src, dst : (t, 3, 2) float64
+    island : (t,) int64
+    weight : (t, 3) float64
+    n : int
+        Number of islands.
+    scale : bool
+        Fit the scale too; otherwise keep it.
+
+    Returns
+    -------
+    s : (n,) float64, R : (n, 2, 2) float64, shift : (n, 2) float64, ok : (n,) bool
+        ``ok`` is False where src has no spread over the weighted corners (the fit would
+        be undetermined); there s = 1, R = I and shift aligns the weighted centroids.
+    """
+    w = weight
+    tot = _sums(island, w, n)
+    safe = np.where(tot > 0, tot, 1.0)
+    ms = _sums(island, src * w[..., None], n) / safe[:, None]
+    md = _sums(island, dst * w[..., None], n) / safe[:, None]
+    a = src - ms[island][:, None, :]
+    b = dst - md[island][:, None, :]
+    dot = _sums(island, (a * b).sum(axis=2) * w, n)
+    cross = _sums(island, (a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]) * w, n)
+    var = _sums(island, (a * a).sum(axis=2) * w, n)
+    ok = (var > 1e-24 * np.maximum(_sums(island, (src * src).sum(axis=2) * w, n), 1e-300)) & (tot > 0)
+    theta = np.where(ok, np.arctan2(cross, dot), 0.0)
+    c, si = np.cos(theta), np.sin(theta)
+    R = np.stack([np.stack([c, -si], axis=1), np.stack([si, c], axis=1)], axis=1)
+    s = np.where(ok & scale, np.hypot(dot, cross) / np.where(ok, var, 1.0), 1.0)
+    shift = md - s[:, None] * np.einsum("nij,nj->ni", R, ms)
+    return s, R, shift, ok
+
+
+def _areas(uv):
+    """Signed area of every UV triangle (t,)."""
+    q1, q2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    return 0.5 * (q1[:, 0] * q2[:, 1] - q1[:, 1] * q2[:, 0])
+
+
+def _apply(uv, island, s, R, shift):
+    return s[island][:, None, None] * np.einsum("tij,tkj->tki", R[island], uv) + shift[island][:, None, :]
+
+
+def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None):
+    """Final corner UVs of the unwrapped triangles.
+
+    Parameters
+    ----------
+    uv : (t, 3, 2) float64
+        The solver's layout, mesh units, islands side by side.
+    island : (t,) int64
+    n : int
+    locked : (t, 3) bool
+        Corners that keep their old UV (pins; unselected UVs in the UV editor).
+    old : (t, 3, 2) float64
+        The UVs before the unwrap.
+    in_place : bool
+        Put every island where its old UVs were: same centroid, the best-fitting
+        rotation, and (unless ``world_scale``) the same UV area, so texel density stays.
+        Islands whose old UVs have no area are laid out anew.
+    world_scale : bool
+        Keep mesh units (1 UV unit = 1 world unit) instead of fitting into [0, 1].
+    aspect : (t,) float64, optional
+        Image width / height under each triangle: u is divided by it, so texels come
+        out square.
+
+    Returns
+    -------
+    uv : (t, 3, 2) float64
+    held : (n,) bool
+        Islands whose position is fixed by locked corners (the pack step must leave them).
+    """
+    uv = np.array(uv, dtype=np.float64, copy=True)
+    if aspect is not None:
+        uv[..., 0] /= aspect[:, None]
+    if not world_scale and not in_place:
+        lo = uv.reshape(-1, 2).min(axis=0)
+        size = max(float((uv.reshape(-1, 2).max(axis=0) - lo).max()), 1e-300)
+        uv = (uv - lo) / size  # the whole layout into [0, 1], relative sizes kept
+    w_lock = locked.astype(np.float64)
+    n_locked = _sums(island, w_lock, n)
+    held = n_locked > 0
+    if in_place:
+        # rotation from the best fit, size from the old area (texel density kept),
+        # centroid onto the old centroid
+        ones = np.ones_like(w_lock)
+        _, R, _, ok = similarity_fit(uv, old, island, ones, n, scale=False)
+        a_new = np.bincount(island, np.abs(_areas(uv)), minlength=n)
+        a_old = np.bincount(island, np.abs(_areas(old)), minlength=n)
+        fit = ok & ~held & (a_old > 0) & (a_new > 0)
+        s = np.where(fit & (not world_scale), np.sqrt(a_old / np.where(a_new > 0, a_new, 1.0)), 1.0)
+        count = 3 * np.bincount(island, minlength=n)
+        c_new = _sums(island, uv, n) / np.maximum(count, 1)[:, None]
+        c_old = _sums(island, old, n) / np.maximum(count, 1)[:, None]
+        R = np.where(fit[:, None, None], R, np.eye(2))
+        shift = np.where(fit[:, None], c_old - s[:, None] * np.einsum("nij,nj->ni", R, c_new), 0.0)
+        uv = _apply(uv, island, s, R, shift)
+    if held.any():
+        s, R, shift, ok = similarity_fit(uv, old, island, w_lock, n, scale=not world_scale)
+        s = np.where(held, s, 1.0)
+        R = np.where(held[:, None, None], R, np.eye(2))
+        shift = np.where(held[:, None], shift, 0.0)
+        uv = _apply(uv, island, s, R, shift)
+        uv[locked] = old[locked]
+    return uv, held

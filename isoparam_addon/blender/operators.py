@@ -1,0 +1,50 @@
+"""Operators: thin wrappers that read their options and call :mod:`.unwrap`."""
+
+from __future__ import annotations
+
+import bpy
+from bpy.props import BoolProperty, FloatProperty
+
+from . import unwrap
+
+__all__ = ["UV_OT_isometric_unwrap"]
+
+
+class UV_OT_isometric_unwrap(bpy.types.Operator):
+    """Unwrap the selected faces so that UV edge lengths match the 3D edge lengths"""
+
+    bl_idname = "uv.isometric_unwrap"
+    bl_label = "Isometric Unwrap"
+    bl_options = {"REGISTER", "UNDO"}
+
+    pack: BoolProperty(
+        name="Pack Islands",
+        description="Pack the islands into the UV square afterwards; off keeps every island "
+        "where its old UVs were (unwrap in place)",
+        default=True,
+    )
+    margin: FloatProperty(
+        name="Margin", description="Space between packed islands", default=0.001, min=0.0, max=1.0, precision=3
+    )
+    correct_aspect: BoolProperty(
+        name="Correct Aspect",
+        description="Account for the aspect ratio of the active image texture of each face's material",
+        default=True,
+    )
+    world_scale: BoolProperty(
+        name="True World Scale",
+        description="One UV unit is one world unit (object transform included): texel density "
+        "follows the size in the scene",
+        default=False,
+    )
+
+    @classmethod
+    def poll(cls, context):
+        ob = context.active_object
+        return ob is not None and ob.type == "MESH" and context.mode == "EDIT_MESH"
+
+    def execute(self, context):
+        opts = unwrap.Options(
+            pack=self.pack, margin=self.margin, correct_aspect=self.correct_aspect, world_scale=self.world_scale
+        )
+        return unwrap.run(self, context, opts)

@@ -1,0 +1,177 @@
+"""The Isometric Unwrap operation: read every mesh in edit mode, solve, then write.
+
+Nothing is written until every selected mesh has been read and solved: a bad mesh
+cancels the whole operation with the mesh and its UVs exactly as they were.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+
+from ..solver import InvalidMeshError, metrics, parametrize
+from . import layout, mesh_io
+
+__all__ = ["Options", "run"]
+
+
+@dataclass
+class Options:
+    pack: bool = True
+    margin: float = 0.001
+    correct_aspect: bool = True
+    world_scale: bool = False
+
+
+_HINTS = {
+    "non_finite": "Some vertices have invalid (NaN or infinite) coordinates",
+    "non_manifold_edge": "Select > Select All by Trait > Non Manifold shows them",
+    "non_manifold_vertex": "Select > Select All by Trait > Non Manifold shows them; "
+    "Mesh > Split > Faces by Edges, or a seam through them, separates the fans",
+    "duplicate_face": "Mesh > Clean Up > Merge by Distance, then Delete Loose, removes them",
+    "repeated_vertex": "Mesh > Clean Up > Degenerate Dissolve removes them",
+}
+
+
+def _describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
+    """The solver's message in mesh terms: its indices are rows of the selection."""
+    text = str(err)
+    if err.count:
+        first = int(err.indices[0])
+        if err.element == "vertex" and first < len(sel.vert_ids):
+            text = text.replace(f"vertex {first})", f"vertex {int(sel.vert_ids[first])})")
+        elif err.element == "face" and first < len(sel.tri_poly):
+            text = text.replace(f"face {first})", f"face {int(sel.tri_poly[first])})")
+        elif err.element == "edge" and err.edges is not None:
+            a, b = (int(sel.vert_ids[v]) for v in err.edges[0])
+            text = text.replace(f"({err.edges[0][0]}, {err.edges[0][1]})", f"between vertices {a} and {b}")
+    hint = _HINTS.get(err.kind, "")
+    return f"'{sel.name}': {text}" + (f". {hint}" if hint else "")
+
+
+def _aspect(obj, material_index: np.ndarray) -> np.ndarray | None:
+    """Width / height of the active image texture of each triangle's material."""
+    ratios = np.ones(max(len(obj.material_slots), 1))
+    found = False
+    for i, slot in enumerate(obj.material_slots):  # a handful of material slots
+        mat = slot.material
+        if mat is None or mat.node_tree is None:  # (use_nodes is deprecated in 5.0)
+            continue
+        nodes = mat.node_tree.nodes
+        node = nodes.active if nodes.active is not None and nodes.active.type == "TEX_IMAGE" else None
+        node = node or next((nd for nd in nodes if nd.type == "TEX_IMAGE" and nd.image is not None), None)
+        if node is not None and node.image is not None and node.image.size[1] > 0:
+            ratios[i] = node.image.size[0] / node.image.size[1]
+            found = True
+    if not found:
+        return None
+    return ratios[np.clip(material_index, 0, len(ratios) - 1)]
+
+
+@dataclass
+class _Solved:
+    obj: object
+    sel: mesh_io.Selection
+    corner_uv: np.ndarray
+    held: np.ndarray
+    n_islands: int
+    stretch: tuple
+    warnings: list
+
+
+def run(op, context, opts: Options) -> set:
+    """Unwrap the selected faces of every mesh in edit mode. Returns the operator result."""
+    t0 = time.perf_counter()
+    wm = context.window_manager
+    space = getattr(context, "space_data", None)
+    uv_editor = space is not None and space.type == "IMAGE_EDITOR"
+    sync = context.scene.tool_settings.use_uv_select_sync
+    objects = [ob for ob in context.objects_in_mode_unique_data if ob.type == "MESH"]
+    wm.progress_begin(0, 2 * len(objects) + 2)
+    # in edit mode the Mesh arrays are stale: read and write them in object mode
+    bpy.ops.object.mode_set(mode="OBJECT")
+    try:
+        solved = _solve_all(op, objects, opts, wm, uv_editor and not sync)
+        if solved is None:
+            return {"CANCELLED"}
+        for s in solved:  # one write per mesh
+            _write(s)
+        wm.progress_update(2 * len(objects) + 1)
+    finally:
+        bpy.ops.object.mode_set(mode="EDIT")
+        wm.progress_end()
+    if opts.pack:
+        held = any(s.held.any() for s in solved)
+        bpy.ops.uv.pack_islands(
+            margin=opts.margin,
+            rotate=True,
+            scale=not opts.world_scale,
+            pin=held,
+            pin_method="LOCKED",
+            shape_method="CONCAVE",
+        )
+    _report(op, solved, time.perf_counter() - t0)
+    return {"FINISHED"}
+
+
+def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
+    """Read and solve every mesh; None (after an ERROR report) if any cannot be solved."""
+    selections = []
+    for k, ob in enumerate(objects):  # one read per mesh in edit mode
+        sel = mesh_io.read_selection(ob, world_space=opts.world_scale, uv_selection_locks=uv_selection_locks)
+        wm.progress_update(k)
+        if not sel.empty:
+            selections.append((ob, sel))
+    if not selections:
+        op.report({"ERROR"}, "Isometric Unwrap: no faces selected. Select the faces to unwrap in edit mode")
+        return None
+    solved = []
+    for k, (ob, sel) in enumerate(selections):
+        try:
+            res = parametrize(sel.V, sel.F, sel.seams, pack=True, split_bowties=True)
+        except InvalidMeshError as err:
+            op.report({"ERROR"}, "Isometric Unwrap: " + _describe(err, sel) + ". Nothing was changed")
+            return None
+        wm.progress_update(len(objects) + k)
+        aspect = _aspect(ob, sel.face_material) if opts.correct_aspect else None
+        locked = sel.locked[sel.tri_loops]
+        old = sel.uv[sel.tri_loops].astype(np.float64)
+        uv, held = layout.place(
+            res.corner_uv,
+            res.face_island,
+            res.n_islands,
+            locked=locked,
+            old=old,
+            in_place=not opts.pack,
+            world_scale=opts.world_scale,
+            aspect=aspect,
+        )
+        stretch = metrics.stretch(sel.V, sel.F, res.corner_uv)
+        solved.append(_Solved(ob, sel, uv, held, res.n_islands, stretch, res.warnings))
+    return solved
+
+
+def _write(s: _Solved) -> None:
+    """Write one mesh's corner UVs (object mode); every corner of a face gets its triangle's UV."""
+    me = s.obj.data
+    name = mesh_io.uv_layer_name(me)
+    uv = s.sel.uv.copy() if s.sel.uv_name == name else np.zeros((len(me.loops), 2), np.float32)
+    uv[s.sel.tri_loops] = s.corner_uv
+    mesh_io.write_uvs(me, name, uv)
+
+
+def _report(op, solved, seconds: float) -> None:
+    islands = sum(s.n_islands for s in solved)
+    worst = max(s.stretch[1] for s in solved)
+    mean = float(np.mean([s.stretch[0] for s in solved]))
+    where = f" on {len(solved)} meshes" if len(solved) > 1 else ""
+    op.report(
+        {"INFO"},
+        f"Isometric Unwrap: {islands} island(s){where}, stretch worst {worst:.2f} (L2 {mean:.3f}), {seconds:.2f} s",
+    )
+    for s in solved:  # warnings per mesh
+        for w in s.warnings:
+            op.report({"WARNING"}, f"Isometric Unwrap, '{s.sel.name}': {w}")

@@ -1,0 +1,126 @@
+"""Every bad-input path: an ERROR report, CANCELLED, and the mesh byte-for-byte as it was."""
+
+import numpy as np
+import pytest
+
+from isoparam_addon.blender import mesh_io
+from isoparam_addon.solver import examples as ex
+
+from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, snapshot
+
+
+def run_and_capture(ob):
+    """Run the operator in edit mode; return (result, error text) and leave object mode."""
+    edit(ob)
+    try:
+        result = bpy.ops.uv.isometric_unwrap()
+        message = ""
+    except RuntimeError as exc:  # bpy turns an ERROR report into a RuntimeError
+        result, message = {"CANCELLED"}, str(exc)
+    object_mode()
+    return result, message
+
+
+def prepared(V, F):
+    """A mesh with existing UVs, so that 'unchanged' covers them too."""
+    ob = add_mesh("bad", V, F)
+    edit(ob)
+    bpy.ops.uv.unwrap(method="CONFORMAL")
+    object_mode()
+    return ob
+
+
+@pytest.mark.parametrize(
+    "case, expect",
+    [
+        ("non_finite", "non-finite coordinates"),
+        ("three_faces_on_an_edge", "shared by more than two faces"),
+        ("duplicate_face", "repeat the vertices of an earlier face"),
+    ],
+)
+def test_bad_meshes_are_reported_and_left_untouched(scene, case, expect):
+    V, F = ex.peaks(9)
+    V = V.copy()
+    F = F.tolist()
+    if case == "three_faces_on_an_edge":
+        V = np.vstack([V, [[0.0, 0.0, 5.0]]])
+        a, d = F[20][0], F[20][2]  # a cell's diagonal: already shared by two faces
+        F.append([a, d, len(V) - 1])
+    elif case == "duplicate_face":
+        F.append(list(F[3][::-1]))
+    ob = prepared(V, F)
+    if case == "non_finite":
+        me = ob.data
+        pos = np.empty(3 * len(me.vertices), np.float32)
+        me.attributes["position"].data.foreach_get("vector", pos)
+        pos[3 * 7] = np.nan
+        me.attributes["position"].data.foreach_set("vector", pos)
+        me.update()
+    before = snapshot(ob)
+    result, message = run_and_capture(ob)
+    assert result == {"CANCELLED"}
+    assert expect in message and "Nothing was changed" in message
+    assert snapshot(ob) == before
+
+
+def test_the_message_names_mesh_elements(scene):
+    V, F = ex.peaks(9)
+    ob = prepared(V, F)
+    me = ob.data
+    pos = np.empty(3 * len(me.vertices), np.float32)
+    me.attributes["position"].data.foreach_get("vector", pos)
+    pos[3 * 40 + 2] = np.inf
+    me.attributes["position"].data.foreach_set("vector", pos)
+    me.update()
+    _, message = run_and_capture(ob)
+    assert "'bad': 1 vertex have non-finite coordinates (first: vertex 40)" in message
+
+
+def test_empty_selection_is_an_error(scene):
+    V, F = ex.peaks(9)
+    ob = prepared(V, F)
+    edit(ob)
+    bpy.ops.mesh.select_all(action="DESELECT")
+    object_mode()
+    before = snapshot(ob)
+    edit(ob, select_all=False)
+    with pytest.raises(RuntimeError, match="no faces selected"):
+        bpy.ops.uv.isometric_unwrap()
+    object_mode()
+    assert snapshot(ob) == before
+
+
+def test_hidden_faces_are_not_unwrapped(scene):
+    V, F = ex.peaks(9)
+    ob = prepared(V, F)
+    before = corner_uvs(ob).copy()
+    edit(ob)
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.mesh.hide(unselected=False)  # hides everything: nothing visible to unwrap
+    with pytest.raises(RuntimeError, match="no faces selected"):
+        bpy.ops.uv.isometric_unwrap()
+    object_mode()
+    assert np.array_equal(corner_uvs(ob), before)
+
+
+def test_faces_touching_at_a_vertex_are_separate_islands(scene):
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]], dtype=float)
+    ob = add_mesh("bowtie", V, [[0, 1, 2], [0, 3, 4]])
+    edit(ob)
+    assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
+
+
+def test_uv_selection_locks_unselected_uvs_when_asked(scene):
+    # the UV editor with sync select off: what read_selection does with the UV selection
+    V, F = ex.peaks(5)
+    ob = prepared(V, F)
+    me = ob.data
+    attr = me.attributes.get(".uv_select_vert") or me.attributes.get(f".vs.{me.uv_layers.active.name}")
+    assert attr is not None
+    picked = np.zeros(len(me.loops), dtype=bool)
+    picked[::2] = True
+    attr.data.foreach_set("value", picked)
+    sel = mesh_io.read_selection(ob, world_space=False, uv_selection_locks=True)
+    assert np.array_equal(sel.locked, ~picked)
+    sel = mesh_io.read_selection(ob, world_space=False, uv_selection_locks=False)
+    assert not sel.locked.any()

@@ -1,0 +1,291 @@
+"""uv.isometric_unwrap through the real bpy module: values, selection, seams, pins, undo."""
+
+import numpy as np
+import pytest
+
+from isoparam_addon.solver import examples as ex
+from isoparam_addon.solver import metrics, parametrize
+
+from .conftest import add_mesh, bpy, corner_uvs, corner_verts, edit, object_mode, positions, triangles
+
+
+def unwrap(**kw):
+    return bpy.ops.uv.isometric_unwrap(**kw)
+
+
+def triangle_uvs(ob):
+    """(V, F, corner UVs (t, 3, 2)) of the object's loop triangles."""
+    tri = triangles(ob)
+    return positions(ob), corner_verts(ob)[tri], corner_uvs(ob)[tri].astype(np.float64)
+
+
+def tube(n_around=24, n_up=6, quads=True):
+    """An open cylinder (two boundary loops) of quads, and the edges along one ruling."""
+    a, z = np.meshgrid(np.arange(n_around) * 2 * np.pi / n_around, np.linspace(0, 1.5, n_up), indexing="ij")
+    V = np.stack([np.cos(a), np.sin(a), z], -1).reshape(-1, 3)
+    faces = [
+        [i * n_up + j, ((i + 1) % n_around) * n_up + j, ((i + 1) % n_around) * n_up + j + 1, i * n_up + j + 1]
+        for i in range(n_around)
+        for j in range(n_up - 1)
+    ]  # building a test mesh
+    return V, faces
+
+
+def mark_seams(ob, pairs):
+    me = ob.data
+    ev = np.empty(2 * len(me.edges), dtype=np.int32)
+    me.attributes[".edge_verts"].data.foreach_get("value", ev)
+    ev = np.sort(ev.reshape(-1, 2), axis=1)
+    want = {tuple(sorted(p)) for p in pairs}
+    flags = np.array([tuple(e) in want for e in ev.tolist()])  # test set-up on a small mesh
+    me.edges.foreach_set("use_seam", flags)
+
+
+def select_faces(ob, sel):
+    """Select exactly these faces (and their vertices and edges), in object mode."""
+    me = ob.data
+    me.polygons.foreach_set("select", sel)
+    cv = corner_verts(ob)
+    start = np.empty(len(me.polygons), dtype=np.int32)
+    me.polygons.foreach_get("loop_start", start)
+    count = np.diff(np.append(start, len(cv)))
+    vsel = np.zeros(len(me.vertices), dtype=bool)
+    vsel[cv[np.repeat(sel, count)]] = True
+    me.vertices.foreach_set("select", vsel)
+    ev = np.empty(2 * len(me.edges), dtype=np.int32)
+    me.edges.foreach_get("vertices", ev)
+    ev = ev.reshape(-1, 2)
+    me.edges.foreach_set("select", vsel[ev[:, 0]] & vsel[ev[:, 1]])
+    bpy.context.tool_settings.mesh_select_mode = (False, False, True)
+
+
+def test_operator_is_listed_in_the_unwrap_menus():
+    menu = bpy.types.IMAGE_MT_uvs_unwrap
+    names = [f.__name__ for f in menu._dyn_ui_initialize()]
+    assert "_menu_draw" in names
+    if bpy.app.version < (4, 3, 0):  # pragma: no cover - the wheel under test is 5.0
+        assert "_menu_draw" in [f.__name__ for f in bpy.types.VIEW3D_MT_uv_map._dyn_ui_initialize()]
+
+
+def test_poll_needs_a_mesh_in_edit_mode(scene):
+    ob = add_mesh("peaks", *ex.peaks(9))
+    bpy.context.view_layer.objects.active = ob
+    assert not bpy.ops.uv.isometric_unwrap.poll()
+    edit(ob)
+    assert bpy.ops.uv.isometric_unwrap.poll()
+
+
+def test_peaks_through_the_operator_matches_the_solver(scene):
+    V, F = ex.peaks(41)
+    ob = add_mesh("peaks", V, F)
+    edit(ob)
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    Vb, Fb, cuv = triangle_uvs(ob)
+    ours = metrics.distortion(Vb, Fb, cuv)
+    ref = parametrize(V, F).distortion()
+    assert ours["edge_rms"] == pytest.approx(ref["edge_rms"], rel=1e-4)
+    assert ours["stretch_linf"] == pytest.approx(ref["stretch_linf"], rel=1e-3)
+    assert ours["flipped"] == 0
+    assert cuv.min() >= 0 and cuv.max() <= 1  # packed into the UV square
+
+
+def test_s_surface_is_exact_through_the_operator(scene):
+    V, F, _ = ex.s_surface(50, 12)
+    ob = add_mesh("S", V, F)
+    edit(ob)
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    assert metrics.edge_rms(*triangle_uvs(ob)) < 1e-5  # UVs are float32
+
+
+def test_cylinder_cut_by_one_seam_is_exact(scene):
+    V, faces = tube()
+    ob = add_mesh("tube", V, faces)
+    mark_seams(ob, [(j, j + 1) for j in range(5)])  # the ruling at angle 0
+    edit(ob)
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    Vb, Fb, cuv = triangle_uvs(ob)
+    assert metrics.edge_rms(Vb, Fb, cuv) < 1e-5
+    assert len(np.unique(metrics.uv_islands(Fb, cuv))) == 1
+
+
+def test_two_seams_make_two_islands(scene):
+    V, faces = tube()
+    ob = add_mesh("tube", V, faces)
+    mark_seams(ob, [(j, j + 1) for j in range(5)] + [(12 * 6 + j, 12 * 6 + j + 1) for j in range(5)])
+    edit(ob)
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    Vb, Fb, cuv = triangle_uvs(ob)
+    assert len(np.unique(metrics.uv_islands(Fb, cuv))) == 2
+    assert metrics.edge_rms(Vb, Fb, cuv) < 1e-5
+
+
+def test_quads_and_ngons_get_one_uv_per_corner(scene):
+    # a quad grid with an octagon n-gon in its middle replaced
+    n = 6
+    x, y = np.meshgrid(np.arange(n), np.arange(n), indexing="xy")
+    V = np.stack([x.ravel(), y.ravel(), np.zeros(n * n)], 1).astype(float)
+    faces = [
+        [j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i] for j in range(n - 1) for i in range(n - 1)
+    ]  # building a test mesh
+    ob = add_mesh("grid", V, faces)
+    edit(ob)
+    bpy.ops.mesh.select_all(action="DESELECT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.mesh.dissolve_faces()  # one big n-gon with every vertex on its boundary
+    bpy.ops.mesh.select_all(action="SELECT")
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    assert len(ob.data.polygons) == 1 and len(ob.data.polygons[0].vertices) == 20
+    Vb, Fb, cuv = triangle_uvs(ob)
+    assert metrics.edge_rms(Vb, Fb, cuv) < 1e-5
+    # the same vertex has the same UV in every triangle it appears in
+    uv = corner_uvs(ob)
+    cv = corner_verts(ob)
+    for v in np.unique(cv)[:5]:
+        assert len(np.unique(uv[cv == v], axis=0)) == 1
+
+
+def test_unselected_faces_keep_their_uvs(scene):
+    V, F = ex.peaks(21)
+    ob = add_mesh("peaks", V, F)
+    edit(ob)
+    unwrap()
+    object_mode()
+    before = corner_uvs(ob).copy()
+    me = ob.data
+    sel = np.zeros(len(me.polygons), dtype=bool)
+    sel[: len(sel) // 2] = True
+    select_faces(ob, sel)
+    edit(ob, select_all=False)
+    assert unwrap(pack=False) == {"FINISHED"}
+    object_mode()
+    after = corner_uvs(ob)
+    loop_poly = np.repeat(np.arange(len(me.polygons)), 3)
+    keep = ~sel[loop_poly]
+    assert np.array_equal(after[keep].tobytes(), before[keep].tobytes())
+    assert not np.allclose(after[~keep], before[~keep])
+
+
+def test_pinned_uvs_hold(scene):
+    V, F = ex.peaks(21)
+    ob = add_mesh("peaks", V, F)
+    edit(ob)
+    unwrap()
+    object_mode()
+    me = ob.data
+    uv = corner_uvs(ob).copy()
+    cv = corner_verts(ob)
+    # move two corner vertices' UVs somewhere and pin them
+    pinned_verts = [0, 20]
+    target = {0: (0.1, 0.2), 20: (0.7, 0.3)}
+    for v in pinned_verts:
+        uv[cv == v] = target[v]
+    me.uv_layers.active.uv.foreach_set("vector", uv.ravel())
+    layer = me.uv_layers.active
+    layer.pin_ensure()
+    pins = np.isin(cv, pinned_verts)
+    layer.pin.foreach_set("value", pins)
+    edit(ob)
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    after = corner_uvs(ob)
+    for v in pinned_verts:
+        assert np.array_equal(after[cv == v], np.tile(np.float32(target[v]), (int((cv == v).sum()), 1)))
+    # the island was fitted to the pins: its shape is the isometric layout
+    assert metrics.edge_rms(*triangle_uvs(ob)) == pytest.approx(parametrize(V, F).distortion()["edge_rms"], rel=1e-3)
+
+
+def test_two_objects_in_edit_mode(scene):
+    V1, F1, _ = ex.s_surface(30, 8)
+    V2, F2 = ex.peaks(15)
+    a = add_mesh("S", V1, F1)
+    b = add_mesh("peaks", V2, F2, location=(5, 0, 0))
+    edit(a, b)
+    assert len(bpy.context.objects_in_mode_unique_data) == 2
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    uv_a, uv_b = corner_uvs(a), corner_uvs(b)
+    assert np.ptp(uv_a, axis=0).min() > 0.05 and np.ptp(uv_b, axis=0).min() > 0.05
+    assert metrics.edge_rms(*triangle_uvs(a)) < 1e-5
+    # packed together: the two sets of islands do not overlap in UV space
+    lo_a, hi_a, lo_b, hi_b = uv_a.min(0), uv_a.max(0), uv_b.min(0), uv_b.max(0)
+    assert (hi_a <= lo_b + 1e-6).any() or (hi_b <= lo_a + 1e-6).any()
+
+
+def test_undo_restores_the_previous_uvs(scene):
+    # Headless Blender records no edit-mode undo steps (measured: ed.undo() in edit mode
+    # goes back to the last global step), so the step is pushed in object mode.
+    V, F = ex.peaks(21)
+    ob = add_mesh("peaks", V, F)
+    edit(ob)
+    bpy.ops.uv.unwrap(method="CONFORMAL")
+    object_mode()
+    before = corner_uvs(ob).copy()
+    bpy.ops.ed.undo_push(message="before isometric unwrap")
+    edit(ob)
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    assert not np.allclose(corner_uvs(ob), before)
+    bpy.ops.ed.undo_push(message="after isometric unwrap")
+    bpy.ops.ed.undo()
+    ob = bpy.data.objects["peaks"]
+    assert np.array_equal(corner_uvs(ob), before)
+    bpy.ops.ed.redo()
+    assert not np.allclose(corner_uvs(bpy.data.objects["peaks"]), before)
+
+
+def test_unwrap_in_place_keeps_islands_where_they_were(scene):
+    V, F = ex.peaks(21)
+    ob = add_mesh("peaks", V, F)
+    edit(ob)
+    bpy.ops.uv.unwrap(method="CONFORMAL")
+    object_mode()
+    before = corner_uvs(ob).astype(np.float64)
+    edit(ob)
+    assert unwrap(pack=False) == {"FINISHED"}
+    object_mode()
+    after = corner_uvs(ob).astype(np.float64)
+    assert np.allclose(after.mean(axis=0), before.mean(axis=0), atol=1e-4)
+    Vb, Fb, cuv_after = triangle_uvs(ob)
+    cuv_before = before[triangles(ob)]
+    uv_area = lambda c: 0.5 * np.abs(np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])).sum()  # noqa: E731
+    assert uv_area(cuv_after) == pytest.approx(uv_area(cuv_before), rel=1e-4)  # same texel density
+
+
+def test_true_world_scale_follows_the_object_transform(scene):
+    V, F, _ = ex.s_surface(30, 8)
+    ob = add_mesh("S", V, F)
+    ob.scale = (2.0, 2.0, 2.0)
+    edit(ob)
+    assert unwrap(world_scale=True, pack=False) == {"FINISHED"}
+    object_mode()
+    Vb, Fb, cuv = triangle_uvs(ob)
+    l3, l2 = metrics.edge_lengths(2.0 * Vb, Fb, cuv)
+    np.testing.assert_allclose(l2, l3, rtol=1e-5)
+
+
+def test_correct_aspect_squeezes_u_for_a_wide_image(scene):
+    V, F, _ = ex.s_surface(30, 8)
+    results = {}
+    for correct in (False, True):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        ob = add_mesh("S", V, F)
+        mat = bpy.data.materials.new("wide")
+        if bpy.app.version < (5, 0, 0):  # pragma: no cover - always on in 5.0
+            mat.use_nodes = True
+        node = mat.node_tree.nodes.new("ShaderNodeTexImage")
+        node.image = bpy.data.images.new("wide", 256, 128)
+        mat.node_tree.nodes.active = node
+        ob.data.materials.append(mat)
+        edit(ob)
+        unwrap(correct_aspect=correct, pack=False, world_scale=True)
+        object_mode()
+        results[correct] = corner_uvs(ob).astype(np.float64)
+    # the layout is only rotated by the solver; compare the extents of the two axes
+    ext_plain = np.sort(np.ptp(results[False], axis=0))
+    ext_fixed = np.ptp(results[True], axis=0)
+    assert np.prod(ext_fixed) == pytest.approx(np.prod(ext_plain) / 2, rel=1e-3)
