@@ -72,7 +72,7 @@ def _apply(uv, island, s, R, shift):
     return s[island][:, None, None] * np.einsum("tij,tkj->tki", R[island], uv) + shift[island][:, None, :]
 
 
-def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None):
+def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, margin=0.0):
     """Final corner UVs of the unwrapped triangles.
 
     Parameters
@@ -94,6 +94,8 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None):
     aspect : (t,) float64, optional
         Image width / height under each triangle: u is divided by it, so texels come
         out square.
+    margin : float
+        Space kept around the layout when it is fitted into [0, 1].
 
     Returns
     -------
@@ -107,7 +109,8 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None):
     if not world_scale and not in_place:
         lo = uv.reshape(-1, 2).min(axis=0)
         size = max(float((uv.reshape(-1, 2).max(axis=0) - lo).max()), 1e-300)
-        uv = (uv - lo) / size  # the whole layout into [0, 1], relative sizes kept
+        room = max(1.0 - 2.0 * margin, 1e-6)
+        uv = margin + (uv - lo) * (room / size)  # the whole layout into [0, 1], relative sizes kept
     w_lock = locked.astype(np.float64)
     n_locked = _sums(island, w_lock, n)
     held = n_locked > 0

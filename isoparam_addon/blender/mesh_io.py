@@ -108,9 +108,8 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool) -> Selec
     hide = _attribute(me, [".hide_poly"], 1, bool, nf)
     chosen = (np.zeros(nf, bool) if select is None else select) & (True if hide is None else ~hide)
     seam = _attribute(me, ["uv_seam", ".uv_seam"], 1, bool, ne)
-    if seam is None:
+    if seam is None:  # the attribute is created with the first seam: none yet
         seam = np.zeros(ne, dtype=bool)
-        me.edges.foreach_get("use_seam", seam)
     material = _attribute(me, ["material_index"], 1, np.int32, nf)
     uv = np.zeros((nl, 2), dtype=np.float32)
     locked = np.zeros(nl, dtype=bool)

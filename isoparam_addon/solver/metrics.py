@@ -118,11 +118,15 @@ def edge_rms(V, F, uv) -> float:
 def _frames(V, F, cuv):
     """3D face areas, and the 2x2 Jacobians of the map from each face to UV."""
     V = np.asarray(V, dtype=np.float64)
-    p = V[F]
-    e1 = p[:, 1] - p[:, 0]
-    e2 = p[:, 2] - p[:, 0]
-    n1 = np.linalg.norm(e1, axis=1)
-    cross = np.linalg.norm(np.cross(e1, e2), axis=1)
+    cols = [np.ascontiguousarray(V[:, c]) for c in range(3)]  # 1-D gathers are fast
+    i0, i1, i2 = (np.ascontiguousarray(F[:, k]) for k in range(3))
+    e1 = np.stack([c[i1] - c[i0] for c in cols], axis=1)
+    e2 = np.stack([c[i2] - c[i0] for c in cols], axis=1)
+    n1 = np.sqrt((e1 * e1).sum(axis=1))
+    cx = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+    cy = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+    cz = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    cross = np.sqrt(cx * cx + cy * cy + cz * cz)
     area = 0.5 * cross
     ok = (cross > 1e-14 * np.maximum(n1, 1e-300) ** 2) & (n1 > 0)
     x1 = np.where(ok, n1, 1.0)
