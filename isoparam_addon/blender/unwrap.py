@@ -107,14 +107,22 @@ def run(op, context, opts: Options) -> set:
     if opts.pack and (sum(s.n_islands for s in solved) > 1 or held):
         # a single island was fitted into the unit square by layout.place already
         # (Blender's pack would spend 0.17 s on it at 100k vertices)
-        bpy.ops.uv.pack_islands(
-            margin=opts.margin,
-            rotate=True,
-            scale=not opts.world_scale,
-            pin=held,
-            pin_method="LOCKED",
-            shape_method="CONCAVE",
-        )
+        # with UV sync selection the pack acts on the selected faces, whatever their UVs'
+        # own selection (off by default in 4.2); the setting is restored right after
+        tool = context.scene.tool_settings
+        sync_was = tool.use_uv_select_sync
+        tool.use_uv_select_sync = True
+        try:
+            bpy.ops.uv.pack_islands(
+                margin=opts.margin,
+                rotate=True,
+                scale=not opts.world_scale,
+                pin=held,
+                pin_method="LOCKED",
+                shape_method="CONCAVE",
+            )
+        finally:
+            tool.use_uv_select_sync = sync_was
     _report(op, solved, time.perf_counter() - t0)
     return {"FINISHED"}
 
