@@ -110,8 +110,12 @@ def unwrap_scene(args) -> dict:
         bpy.ops.mesh.reveal()
         bpy.ops.mesh.select_all(action="SELECT")
         try:
-            bpy.ops.uv.isometric_unwrap(pack=not args.in_place, margin=args.margin, world_scale=args.world_scale,
-                                        correct_aspect=not args.no_aspect)
+            bpy.ops.uv.isometric_unwrap(
+                pack=not args.in_place,
+                margin=args.margin,
+                world_scale=args.world_scale,
+                correct_aspect=not args.no_aspect,
+            )
         finally:
             bpy.ops.object.mode_set(mode="OBJECT")
     return {"objects": len(meshes), "faces": sum(len(ob.data.polygons) for ob in meshes)}
@@ -124,8 +128,9 @@ def _progress(i: int, n: int, name: str, status: str) -> None:
 
 
 def parse(argv):
-    ap = argparse.ArgumentParser(prog="batch_unwrap", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="batch_unwrap", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("inputs", nargs="*", type=Path, help="files to unwrap (none: the open .blend, inside Blender)")
     ap.add_argument("-o", "--out", type=Path, help="output file (one input) or folder (several inputs)")
     ap.add_argument("--format", choices=[f[1:] for f in FORMATS], help="output format when --out is a folder")
@@ -152,7 +157,7 @@ def output_for(args, path: Path | None, many: bool) -> Path | None:
 
 def main(argv=None) -> int:
     if argv is None:
-        argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+        argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
     args = parse(argv)
     import bpy
 
@@ -184,8 +189,11 @@ def main(argv=None) -> int:
             entry.update(status="ok", seconds=round(time.perf_counter() - t0, 3))
         except Exception as exc:  # report and go on with the next file
             failed += 1
-            entry.update(status="failed", error=str(exc).strip().splitlines()[-1][:500],
-                         seconds=round(time.perf_counter() - t0, 3))
+            entry.update(
+                status="failed",
+                error=str(exc).strip().splitlines()[-1][:500],
+                seconds=round(time.perf_counter() - t0, 3),
+            )
         report.append(entry)
         _progress(i + 1, len(jobs), name, entry["status"])
         print(json.dumps(entry))

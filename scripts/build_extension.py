@@ -85,9 +85,23 @@ def download(wheels: list[str], platforms: list[str], pythons: list[str], cache:
             missing = [n for n in names if not (cache / Path(n).name).exists()]
             for name in missing:  # one pip call per missing wheel
                 m = re.match(r"(?P<dist>[^-]+)-(?P<ver>[^-]+)-", Path(name).name)
-                cmd = [sys.executable, "-m", "pip", "download", "--quiet", "--disable-pip-version-check",
-                       "--only-binary=:all:", "--no-deps", "--implementation", "cp", "--python-version", python,
-                       "-d", str(cache), f"{m['dist']}=={m['ver']}"]
+                cmd = [
+                    sys.executable,
+                    "-m",
+                    "pip",
+                    "download",
+                    "--quiet",
+                    "--disable-pip-version-check",
+                    "--only-binary=:all:",
+                    "--no-deps",
+                    "--implementation",
+                    "cp",
+                    "--python-version",
+                    python,
+                    "-d",
+                    str(cache),
+                    f"{m['dist']}=={m['ver']}",
+                ]
                 for tag in PIP_PLATFORMS[platform]:
                     cmd += ["--platform", tag]
                 subprocess.run(cmd, check=True)
@@ -128,8 +142,11 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     tags = ["--valid-tags", str(valid_tags(tool))]
     subprocess.run([sys.executable, str(tool), "validate", str(src)] + tags[:0], check=True)
-    subprocess.run([sys.executable, str(tool), "build", "--source-dir", str(src), "--output-dir", str(out),
-                    "--split-platforms"] + tags, check=True)
+    subprocess.run(
+        [sys.executable, str(tool), "build", "--source-dir", str(src), "--output-dir", str(out), "--split-platforms"]
+        + tags,
+        check=True,
+    )
     zips = sorted(out.glob(f"{manifest['id']}-{manifest['version']}-*.zip"))
     for z in zips:
         print(f"{z}  {z.stat().st_size / 2**20:.1f} MiB")

@@ -105,21 +105,31 @@ def measure(name, V, F, methods, repeat, slow_repeat):
         Ft, cuv = read_uvs(ob)
         d = metrics.distortion(V, Ft, cuv)
         rows[method] = dict(seconds=float(np.median(times)), runs=runs, **d)
-        print(f"  {name:10s} {method:16s} {rows[method]['seconds']:8.3f} s  edge RMS {d['edge_rms']:.4f}  "
-              f"L2 {d['stretch_l2']:.3f}  flips {d['flipped']}", file=sys.stderr, flush=True)
+        print(
+            f"  {name:10s} {method:16s} {rows[method]['seconds']:8.3f} s  edge RMS {d['edge_rms']:.4f}  "
+            f"L2 {d['stretch_l2']:.3f}  flips {d['flipped']}",
+            file=sys.stderr,
+            flush=True,
+        )
     return rows
 
 
 def table(name, n_vertices, rows):
     ours = rows.get("isoparam", {}).get("seconds")
-    lines = [f"### {name} ({n_vertices:,} vertices)", "",
-             "| method | time (s) | runs | x isoparam time | relative RMS edge error | L2 stretch | Linf stretch "
-             "| symmetric Dirichlet | flips |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"### {name} ({n_vertices:,} vertices)",
+        "",
+        "| method | time (s) | runs | x isoparam time | relative RMS edge error | L2 stretch | Linf stretch "
+        "| symmetric Dirichlet | flips |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for method, r in rows.items():
         ratio = f"{r['seconds'] / ours:.1f}" if ours else "-"
-        lines.append(f"| {method} | {r['seconds']:.3f} | {r['runs']} | {ratio} | {r['edge_rms']:.4f} | "
-                     f"{r['stretch_l2']:.3f} | {r['stretch_linf']:.2f} | {r['symmetric_dirichlet']:.3f} | "
-                     f"{r['flipped']} |")
+        lines.append(
+            f"| {method} | {r['seconds']:.3f} | {r['runs']} | {ratio} | {r['edge_rms']:.4f} | "
+            f"{r['stretch_l2']:.3f} | {r['stretch_linf']:.2f} | {r['symmetric_dirichlet']:.3f} | "
+            f"{r['flipped']} |"
+        )
     return "\n".join(lines)
 
 
@@ -138,13 +148,15 @@ def io_benchmark(repeat: int) -> str:
         mesh_io.write_uvs(ob.data, "UVMap", sel.uv)
         writes.append(time.perf_counter() - t)
     corners = len(ob.data.loops)
-    return (f"### mesh I/O ({corners:,} corners)\n\n| step | median (s) |\n|---|---|\n"
-            f"| read positions, faces, selection, seams, pins, UVs, triangles | {np.median(reads):.3f} |\n"
-            f"| write UVs | {np.median(writes):.3f} |")
+    return (
+        f"### mesh I/O ({corners:,} corners)\n\n| step | median (s) |\n|---|---|\n"
+        f"| read positions, faces, selection, seams, pins, UVs, triangles | {np.median(reads):.3f} |\n"
+        f"| write UVs | {np.median(writes):.3f} |"
+    )
 
 
 def main(argv=None) -> int:
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else argv
+    argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else argv
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--meshes", nargs="+", default=["peaks41", "peaks100k"], choices=list(MESHES))
     ap.add_argument("--methods", nargs="+", default=["isoparam", "ANGLE_BASED", "CONFORMAL"], choices=list(METHODS))

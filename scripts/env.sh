@@ -1,22 +1,40 @@
-# Source me: creates ./.venv with Python 3.11 and the pinned requirements, once.
-# Re-installs only when requirements-dev.txt changes.
+# Source me: creates a Python 3.11 virtualenv with the pinned requirements, once, and
+# re-installs only when the requirements change.
+#   make_venv DIR [BPY_VERSION]   -> DIR/bin/python ready (bpy pinned to BPY_VERSION if given)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-VENV="$ROOT/.venv"
-PY="${ISOPARAM_PYTHON:-python3.11}"
-command -v "$PY" >/dev/null 2>&1 || PY=python3
-if ! "$PY" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))'; then
-    echo "isoparam needs Python 3.11 (bpy 4.2-5.0 wheels exist only for 3.11); found $("$PY" --version)" >&2
-    exit 1
-fi
-if [ ! -x "$VENV/bin/python" ]; then
-    "$PY" -m venv "$VENV"
-fi
-STAMP="$VENV/.requirements.sha"
-WANT="$(sha256sum "$ROOT/requirements-dev.txt" | cut -d' ' -f1)"
-if [ "$(cat "$STAMP" 2>/dev/null || true)" != "$WANT" ]; then
-    "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -r "$ROOT/requirements-dev.txt"
-    echo "$WANT" > "$STAMP"
-fi
+
+find_python() {
+    local py="${ISOPARAM_PYTHON:-python3.11}"
+    command -v "$py" >/dev/null 2>&1 || py=python3
+    if ! "$py" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))'; then
+        echo "isoparam needs Python 3.11 (bpy 4.2-5.0 wheels exist only for 3.11); found $("$py" --version)" >&2
+        exit 1
+    fi
+    echo "$py"
+}
+
+make_venv() {
+    local dir="$1" bpy_version="${2:-}"
+    local req="$ROOT/requirements-dev.txt"
+    local want
+    want="$(cat "$req"; echo "bpy-override=$bpy_version")"
+    want="$(echo "$want" | sha256sum | cut -d' ' -f1)"
+    if [ ! -x "$dir/bin/python" ]; then
+        "$(find_python)" -m venv "$dir"
+    fi
+    if [ "$(cat "$dir/.requirements.sha" 2>/dev/null || true)" != "$want" ]; then
+        if [ -n "$bpy_version" ]; then
+            grep -v '^bpy==' "$req" > "$dir/requirements.txt"
+            echo "bpy==$bpy_version" >> "$dir/requirements.txt"
+        else
+            cp "$req" "$dir/requirements.txt"
+        fi
+        "$dir/bin/python" -m pip install --quiet --disable-pip-version-check -r "$dir/requirements.txt"
+        echo "$want" > "$dir/.requirements.sha"
+    fi
+}
+
+make_venv "$ROOT/.venv"
 export PYTHONPATH="$ROOT${PYTHONPATH:+:$PYTHONPATH}"
-PYTHON="$VENV/bin/python"
+PYTHON="$ROOT/.venv/bin/python"

@@ -22,8 +22,9 @@ def write_obj(path: Path, V, F):
 
 
 def run(*args, cwd=ROOT):
-    done = subprocess.run([sys.executable, str(SCRIPT), *map(str, args)], capture_output=True, text=True,
-                          timeout=600, cwd=cwd)
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), *map(str, args)], capture_output=True, text=True, timeout=600, cwd=cwd
+    )
     return done.returncode, done.stdout, done.stderr
 
 
@@ -32,8 +33,9 @@ def reports(stdout):
 
 
 def obj_uvs(path: Path):
-    return np.array([[float(t) for t in line.split()[1:3]] for line in path.read_text().splitlines()
-                     if line.startswith("vt ")])
+    return np.array(
+        [[float(t) for t in line.split()[1:3]] for line in path.read_text().splitlines() if line.startswith("vt ")]
+    )
 
 
 def test_one_obj_in_one_obj_out(tmp_path):
@@ -55,8 +57,17 @@ def test_many_files_and_formats_with_a_failure(tmp_path):
     bad_F = np.vstack([F, [[F[20][0], F[20][2], len(V)]]])  # three faces on one edge
     write_obj(tmp_path / "bad.obj", np.vstack([V, [[0, 0, 5.0]]]), bad_F)
     out_dir = tmp_path / "out"
-    code, out, err = run(tmp_path / "a.obj", tmp_path / "bad.obj", tmp_path / "b.obj", "-o", out_dir,
-                         "--format", "glb", "--report", tmp_path / "report.json")
+    code, out, err = run(
+        tmp_path / "a.obj",
+        tmp_path / "bad.obj",
+        tmp_path / "b.obj",
+        "-o",
+        out_dir,
+        "--format",
+        "glb",
+        "--report",
+        tmp_path / "report.json",
+    )
     assert code == 1  # one file failed
     entries = {Path(e["file"]).name: e for e in reports(out)}
     assert entries["a.obj"]["status"] == "ok" and entries["b.obj"]["status"] == "ok"
@@ -93,12 +104,16 @@ def test_inside_blender_on_the_open_file(tmp_path):
         bpy.ops.wm.read_homefile(use_empty=True)
         bpy.ops.mesh.primitive_monkey_add()
         bpy.ops.mesh.primitive_grid_add(location=(3, 0, 0))
-        bpy.ops.wm.save_as_mainfile(filepath={str(tmp_path / 'scene.blend')!r})
+        bpy.ops.wm.save_as_mainfile(filepath={str(tmp_path / "scene.blend")!r})
         """
     )
     subprocess.run([sys.executable, "-c", make], check=True, capture_output=True)
-    done = subprocess.run([sys.executable, "-c", INSIDE_BLENDER, str(tmp_path / "scene.blend"), str(SCRIPT)],
-                          capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [sys.executable, "-c", INSIDE_BLENDER, str(tmp_path / "scene.blend"), str(SCRIPT)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stdout + done.stderr
     [entry] = reports(done.stdout)
     assert entry["objects"] == 2 and entry["output"].endswith("scene.blend")
@@ -107,7 +122,7 @@ def test_inside_blender_on_the_open_file(tmp_path):
         import os, tempfile
         os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp()
         import bpy, numpy as np
-        bpy.ops.wm.open_mainfile(filepath={str(tmp_path / 'scene.blend')!r})
+        bpy.ops.wm.open_mainfile(filepath={str(tmp_path / "scene.blend")!r})
         for ob in bpy.data.objects:
             uv = np.empty(2 * len(ob.data.loops), np.float32)
             ob.data.uv_layers.active.uv.foreach_get("vector", uv)

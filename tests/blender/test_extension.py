@@ -42,8 +42,16 @@ INSTALL_AND_USE = textwrap.dedent(
 @pytest.fixture(scope="module")
 def linux_zip(tmp_path_factory):
     out = tmp_path_factory.mktemp("dist")
-    cmd = [sys.executable, str(ROOT / "scripts" / "build_extension.py"), "--platforms", "linux-x64",
-           "--python", "3.11", "--out", str(out)]
+    cmd = [
+        sys.executable,
+        str(ROOT / "scripts" / "build_extension.py"),
+        "--platforms",
+        "linux-x64",
+        "--python",
+        "3.11",
+        "--out",
+        str(out),
+    ]
     done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
     zips = list(out.glob("isoparam-*-linux_x64.zip"))
@@ -63,8 +71,9 @@ def test_the_zip_holds_the_manifest_the_addon_and_scipy_but_not_numpy(linux_zip)
 
 
 def test_installed_extension_unwraps_a_mesh(linux_zip):
-    done = subprocess.run([sys.executable, "-c", INSTALL_AND_USE, str(linux_zip)], capture_output=True,
-                          text=True, timeout=600)
+    done = subprocess.run(
+        [sys.executable, "-c", INSTALL_AND_USE, str(linux_zip)], capture_output=True, text=True, timeout=600
+    )
     out = done.stdout + done.stderr
     assert done.returncode == 0, out
     assert "RESULT {'FINISHED'}" in out
@@ -79,6 +88,9 @@ def test_the_manifest_passes_blenders_validator(tmp_path):
 
     tool = be.blender_ext()
     stage = be.stage(tmp_path / "stage", [], ROOT / "wheels", ["linux-x64"])
-    done = subprocess.run([sys.executable, str(tool), "validate", str(stage), "--valid-tags",
-                           str(be.valid_tags(tool))], capture_output=True, text=True)
+    done = subprocess.run(
+        [sys.executable, str(tool), "validate", str(stage), "--valid-tags", str(be.valid_tags(tool))],
+        capture_output=True,
+        text=True,
+    )
     assert done.returncode == 0 and "Success" in done.stdout, done.stdout + done.stderr
