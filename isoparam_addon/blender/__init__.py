@@ -12,6 +12,7 @@ _classes: tuple = ()
 def _menu_draw(self, context):
     self.layout.separator()
     self.layout.operator("uv.isometric_unwrap", text="Isometric Unwrap")
+    self.layout.operator("uv.isometric_show_stretch", text="Show UV Stretch")
 
 
 def _menus():
@@ -31,10 +32,10 @@ def _menus():
 def register():
     import bpy
 
-    from .operators import UV_OT_isometric_unwrap
+    from .operators import UV_OT_isometric_show_stretch, UV_OT_isometric_unwrap
 
     global _classes
-    _classes = (UV_OT_isometric_unwrap,)
+    _classes = (UV_OT_isometric_unwrap, UV_OT_isometric_show_stretch)
     for cls in _classes:
         bpy.utils.register_class(cls)
     for menu in _menus():

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Selection", "read_selection", "write_uvs", "uv_layer_name"]
+__all__ = ["Selection", "read_selection", "write_uvs", "uv_layer_name", "polygon_of_corner", "write_face_colours"]
 
 
 def _attribute(mesh, names, width: int, dtype, length: int):
@@ -89,11 +89,12 @@ class Selection:
         return len(self.F) == 0
 
 
-def read_selection(obj, *, world_space: bool, uv_selection_locks: bool) -> Selection:
+def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_face: bool = False) -> Selection:
     """Read the selected, visible faces of ``obj`` as a solver input (object mode).
 
     Nothing is written. With ``uv_selection_locks`` (the UV editor with sync select off),
-    corners whose UV is not selected are locked, as Blender's own unwrap does.
+    corners whose UV is not selected are locked, as Blender's own unwrap does. With
+    ``every_face``, selection and visibility are ignored.
     """
     me = obj.data
     nv, ne, nl, nf = len(me.vertices), len(me.edges), len(me.loops), len(me.polygons)
@@ -107,6 +108,8 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool) -> Selec
     select = _attribute(me, [".select_poly"], 1, bool, nf)
     hide = _attribute(me, [".hide_poly"], 1, bool, nf)
     chosen = (np.zeros(nf, bool) if select is None else select) & (True if hide is None else ~hide)
+    if every_face:
+        chosen = np.ones(nf, dtype=bool)
     seam = _attribute(me, ["uv_seam", ".uv_seam"], 1, bool, ne)
     if seam is None:  # the attribute is created with the first seam: none yet
         seam = np.zeros(ne, dtype=bool)
@@ -157,4 +160,35 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool) -> Selec
 def write_uvs(mesh, uv_name: str, uv: np.ndarray) -> None:
     """Write every corner's UV (corners, 2) into the named UV map (object mode only)."""
     mesh.uv_layers[uv_name].uv.foreach_set("vector", np.ascontiguousarray(uv, dtype=np.float32).ravel())
+    mesh.update()
+
+
+def polygon_of_corner(mesh) -> np.ndarray:
+    """(corners,) int64: the face of every corner."""
+    nf = len(mesh.polygons)
+    total = np.empty(nf, dtype=np.int32)
+    mesh.polygons.foreach_get("loop_total", total)
+    return np.repeat(np.arange(nf), total)
+
+
+def write_face_colours(mesh, name: str, face_rgba: np.ndarray, faces: np.ndarray) -> None:
+    """Colour the corners of ``faces`` (object mode) in a float corner colour attribute,
+    created white if missing, and show it in the viewport (active colour)."""
+    attrs = mesh.color_attributes
+    attr = attrs.get(name)
+    if attr is None or attr.domain != "CORNER" or attr.data_type != "FLOAT_COLOR":
+        if attr is not None:
+            attrs.remove(attr)
+        attr = attrs.new(name, "FLOAT_COLOR", "CORNER")
+        attr.data.foreach_set("color", np.ones(4 * len(mesh.loops), dtype=np.float32))
+    rgba = np.empty(4 * len(mesh.loops), dtype=np.float32)
+    attr.data.foreach_get("color", rgba)
+    rgba = rgba.reshape(-1, 4)
+    poly = polygon_of_corner(mesh)
+    row = np.full(len(mesh.polygons), -1, dtype=np.int64)
+    row[faces] = np.arange(len(faces))
+    hit = row[poly] >= 0
+    rgba[hit] = face_rgba[row[poly[hit]]]
+    attr.data.foreach_set("color", rgba.ravel())
+    attrs.active_color = attr
     mesh.update()

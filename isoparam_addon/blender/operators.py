@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, FloatProperty
+from bpy.props import BoolProperty, FloatProperty, IntProperty
 
 from . import unwrap
 
-__all__ = ["UV_OT_isometric_unwrap"]
+__all__ = ["UV_OT_isometric_unwrap", "UV_OT_isometric_show_stretch"]
 
 
 class UV_OT_isometric_unwrap(bpy.types.Operator):
@@ -37,6 +37,20 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         "follows the size in the scene",
         default=False,
     )
+    refine: IntProperty(
+        name="Refinement",
+        description="Iterations of isometric refinement after the four-step layout (symmetric Dirichlet, "
+        "never folds; it stops earlier once converged). 0 is Sun & Hancock's method alone",
+        default=100,
+        min=0,
+        max=2000,
+    )
+    show_stretch: BoolProperty(
+        name="Show Stretch",
+        description="Colour the faces by distortion (colour attribute 'isoparam_stretch': white = true "
+        "shape and scale, red = stretched or squeezed twice over)",
+        default=False,
+    )
 
     @classmethod
     def poll(cls, context):
@@ -45,6 +59,27 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
 
     def execute(self, context):
         opts = unwrap.Options(
-            pack=self.pack, margin=self.margin, correct_aspect=self.correct_aspect, world_scale=self.world_scale
+            pack=self.pack,
+            margin=self.margin,
+            correct_aspect=self.correct_aspect,
+            world_scale=self.world_scale,
+            refine=self.refine,
+            show_stretch=self.show_stretch,
         )
         return unwrap.run(self, context, opts)
+
+
+class UV_OT_isometric_show_stretch(bpy.types.Operator):
+    """Colour the faces by how much the active UV map stretches the texture (white: none, red: 2x or more)"""
+
+    bl_idname = "uv.isometric_show_stretch"
+    bl_label = "Show UV Stretch"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        ob = context.active_object
+        return ob is not None and ob.type == "MESH" and context.mode == "EDIT_MESH"
+
+    def execute(self, context):
+        return unwrap.show_stretch(self, context)

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ..solver import InvalidMeshError, metrics, parametrize
-from . import layout, mesh_io
+from ..solver import InvalidMeshError, parametrize
+from . import layout, mesh_io, stretch
 
 __all__ = ["Options", "run"]
 
@@ -24,6 +24,8 @@ class Options:
     margin: float = 0.001
     correct_aspect: bool = True
     world_scale: bool = False
+    refine: int = 100
+    show_stretch: bool = False
 
 
 _HINTS = {
@@ -99,6 +101,8 @@ def run(op, context, opts: Options) -> set:
             return {"CANCELLED"}
         for s in solved:  # one write per mesh
             _write(s)
+            if opts.show_stretch:
+                _write_stretch(s)
         wm.progress_update(2 * len(objects) + 1)
     finally:
         bpy.ops.object.mode_set(mode="EDIT")
@@ -140,15 +144,23 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
         return None
     solved = []
     for k, (ob, sel) in enumerate(selections):
+        locked = sel.locked[sel.tri_loops]
+        old = sel.uv[sel.tri_loops].astype(np.float64)
         try:
-            res = parametrize(sel.V, sel.F, sel.seams, pack=True, split_bowties=True)
+            res = parametrize(
+                sel.V,
+                sel.F,
+                sel.seams,
+                pack=True,
+                split_bowties=True,
+                refine=opts.refine,
+                pins=(locked, old) if locked.any() else None,
+            )
         except InvalidMeshError as err:
             op.report({"ERROR"}, "Isometric Unwrap: " + _describe(err, sel) + ". Nothing was changed")
             return None
         wm.progress_update(len(objects) + k)
         aspect = _aspect(ob, sel.face_material) if opts.correct_aspect else None
-        locked = sel.locked[sel.tri_loops]
-        old = sel.uv[sel.tri_loops].astype(np.float64)
         uv, held = layout.place(
             res.corner_uv,
             res.face_island,
@@ -160,8 +172,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             aspect=aspect,
             margin=opts.margin if opts.pack else 0.0,
         )
-        stretch = metrics.stretch(sel.V, sel.F, res.corner_uv)
-        solved.append(_Solved(ob, sel, uv, held, res.n_islands, stretch, res.warnings))
+        solved.append(_Solved(ob, sel, uv, held, res.n_islands, stretch.summary(sel.V, sel.F, uv), res.warnings))
     return solved
 
 
@@ -174,15 +185,70 @@ def _write(s: _Solved) -> None:
     mesh_io.write_uvs(me, name, uv)
 
 
+def _write_stretch(s: _Solved) -> None:
+    """Colour the unwrapped faces by distortion (object mode); a face shows its worst triangle."""
+    d = stretch.face_distortion(s.sel.V, s.sel.F, s.corner_uv)
+    faces, inverse = np.unique(s.sel.tri_poly, return_inverse=True)
+    worst = np.zeros(len(faces))
+    np.maximum.at(worst, inverse, d)
+    mesh_io.write_face_colours(s.obj.data, stretch.ATTRIBUTE, stretch.colours(worst), faces)
+
+
 def _report(op, solved, seconds: float) -> None:
     islands = sum(s.n_islands for s in solved)
-    worst = max(s.stretch[1] for s in solved)
-    mean = float(np.mean([s.stretch[0] for s in solved]))
+    worst = max(s.stretch[0] for s in solved)
+    weights = np.array(
+        [
+            float(
+                np.abs(
+                    np.cross(
+                        s.sel.V[s.sel.F[:, 1]] - s.sel.V[s.sel.F[:, 0]], s.sel.V[s.sel.F[:, 2]] - s.sel.V[s.sel.F[:, 0]]
+                    )
+                ).sum()
+            )
+            for s in solved
+        ]
+    )  # one area per mesh
+    mean = float(np.average([s.stretch[1] for s in solved], weights=np.maximum(weights, 1e-300)))
     where = f" on {len(solved)} meshes" if len(solved) > 1 else ""
     op.report(
         {"INFO"},
-        f"Isometric Unwrap: {islands} island(s){where}, stretch worst {worst:.2f} (L2 {mean:.3f}), {seconds:.2f} s",
+        f"Isometric Unwrap: {islands} island(s){where}, stretch worst {worst:.2f} mean {mean:.3f}, {seconds:.2f} s",
     )
     for s in solved:  # warnings per mesh
         for w in s.warnings:
             op.report({"WARNING"}, f"Isometric Unwrap, '{s.sel.name}': {w}")
+
+
+def show_stretch(op, context) -> set:
+    """Colour every face of the meshes in edit mode by the distortion of the active UV map."""
+    objects = [ob for ob in context.objects_in_mode_unique_data if ob.type == "MESH"]
+    bpy.ops.object.mode_set(mode="OBJECT")
+    worst, means, done = 1.0, [], 0
+    try:
+        for ob in objects:  # one mesh at a time
+            me = ob.data
+            if me.uv_layers.active is None or not len(me.polygons):
+                continue
+            sel = mesh_io.read_selection(ob, world_space=False, uv_selection_locks=False, every_face=True)
+            cuv = sel.uv[sel.tri_loops].astype(np.float64)
+            d = stretch.face_distortion(sel.V, sel.F, cuv)
+            faces, inverse = np.unique(sel.tri_poly, return_inverse=True)
+            per_face = np.zeros(len(faces))
+            np.maximum.at(per_face, inverse, d)
+            mesh_io.write_face_colours(me, stretch.ATTRIBUTE, stretch.colours(per_face), faces)
+            w, m = stretch.summary(sel.V, sel.F, cuv)
+            worst = max(worst, w)
+            means.append(m)
+            done += 1
+    finally:
+        bpy.ops.object.mode_set(mode="EDIT")
+    if not done:
+        op.report({"ERROR"}, "Show Stretch: no mesh in edit mode has a UV map")
+        return {"CANCELLED"}
+    op.report(
+        {"INFO"},
+        f"Show Stretch: worst {worst:.2f}, mean {np.mean(means):.3f} "
+        f"(colour attribute '{stretch.ATTRIBUTE}': white 1, red 2 or more)",
+    )
+    return {"FINISHED"}

@@ -17,12 +17,14 @@ import numpy as np
 
 from . import metrics
 from ._memory import retained
-from .align import fit_rotation_scale, orient_and_pack
+from .align import fit_rotation_scale, orient, place, signed_areas
 from .blocks import Islands
 from .embed import plan_elimination, spectral_embedding
 from .errors import InvalidMeshError, IsoparamError, SolverError
 from .local import local_flattening
 from .mesh import Topology, build_topology
+from .pins import fit_to_pins, pin_targets, refine_to_pins, similarity
+from .refine import refine as _refine
 from .weights import reconstruction_weights
 
 __all__ = [
@@ -88,7 +90,7 @@ class Parametrization:
         return metrics.distortion(V, F, self.corner_uv, self.face_island)
 
 
-def _warnings(topo: Topology, emb, clipped, wstats, flipped, unused) -> list[str]:
+def _warnings(topo: Topology, emb, clipped, wstats, flipped, unused, info=None, reached=True) -> list[str]:
     out = []
     for name, isl in (
         ("closed", topo.closed_islands),
@@ -111,6 +113,10 @@ def _warnings(topo: Topology, emb, clipped, wstats, flipped, unused) -> list[str
         out.append(f"step 4 fitted a degenerate scale on {int(clipped.sum())} island(s)")
     if wstats["regularized"]:
         out.append(f"{wstats['regularized']} vertices have no exact reconstruction (degenerate fans)")
+    if info is not None and info.reseeded:
+        out.append("the four-step layout folded; refinement started from a Tutte embedding instead")
+    if not reached:
+        out.append("the pins could not all be reached without folding the layout")
     if flipped.any():
         out.append(f"{int(flipped.sum())} triangle(s) are flipped in the layout (first: face {np.argmax(flipped)})")
     if unused:
@@ -128,6 +134,8 @@ def parametrize(
     tol: float = 1e-8,
     max_iter: int = 40,
     split_bowties: bool = False,
+    refine: int = 0,
+    pins=None,
 ) -> Parametrization:
     """Unwrap a triangle mesh with Sun & Hancock's isometric parametrization.
 
@@ -147,6 +155,13 @@ def parametrize(
     split_bowties : bool
         Split vertices whose faces form several fans (bow-ties; faces touching at one
         vertex go to different islands, as in Blender) instead of raising.
+    refine : int
+        Iterations of isometric refinement (symmetric Dirichlet, no folds; see
+        :mod:`.refine`) after the four steps. 0, the default, is the paper's method.
+    pins : (corners (m, 3) bool, uv (m, 3, 2) float), optional
+        Face corners whose UV is given. An island with pins is fitted to them (rotation,
+        scale and shift from two pins on, shift from one); refinement keeps them fixed,
+        so three or more also shape the island. Pinned islands keep the pins' frame.
 
     Returns
     -------
@@ -159,7 +174,16 @@ def parametrize(
     """
     with retained(enabled=_is_large(vertices)):
         return _parametrize(
-            vertices, faces, seams, pack=pack, margin=margin, tol=tol, max_iter=max_iter, split_bowties=split_bowties
+            vertices,
+            faces,
+            seams,
+            pack=pack,
+            margin=margin,
+            tol=tol,
+            max_iter=max_iter,
+            split_bowties=split_bowties,
+            refine=refine,
+            pins=pins,
         )
 
 
@@ -194,7 +218,7 @@ def _is_large(vertices) -> bool:
         return False
 
 
-def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_bowties) -> Parametrization:
+def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_bowties, refine, pins):
     t = {}
     t0 = time.perf_counter()
     V, F, topo = build_topology(vertices, faces, seams, split_bowties)
@@ -217,8 +241,39 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
     edges = he.edge_vertices
     length = np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
     Y, _, clipped = fit_rotation_scale(emb.coords, edges, length, islands.label[edges[:, 0]], islands)
-    uv_i, flipped = orient_and_pack(Y, faces_i, topo.face_island, islands, pack=pack, margin=margin)
+    Y, flipped = orient(Y, faces_i, topo.face_island, islands)
     t5 = time.perf_counter()
+    held = np.zeros(topo.n_islands, dtype=bool)
+    pinned = None
+    order = np.concatenate([plan.free_order, plan.pins.ravel()])
+    run = lambda seed, fixed: _refine(  # noqa: E731
+        X, faces_i, seed, islands, he.twin, iterations=refine, pinned=fixed, order=order
+    )
+    info, reached = None, True
+    if pins is not None:
+        # refine in the layout's own frame (mesh units, what the energy measures) with the
+        # pins mapped into it, then move each island onto its pins
+        pinned, target = pin_targets(topo, pins, len(X))
+        count = np.bincount(islands.label, pinned, minlength=islands.n)
+        shaping = pinned & (count >= 3)[islands.label]  # one or two pins do not shape an island
+        fit = fit_to_pins(Y, pinned, target, islands)
+        held = fit[3]
+        if refine:
+            local = similarity(target, islands, *fit[:3], inverse=True)
+            info, reached = refine_to_pins(run, Y, faces_i, shaping, local)
+            Y = info.uv
+        Y = similarity(Y, islands, *fit[:3])
+        refit = fit_to_pins(Y, pinned, target, islands)  # islands with one or two pins: exact
+        light = (count <= 2)[islands.label][:, None]
+        Y = np.where(light, similarity(Y, islands, *refit[:3]), Y)
+        Y[pinned] = target[pinned]
+    elif refine:
+        info = run(Y, None)
+        Y = info.uv
+    if info is not None or pinned is not None:
+        flipped = signed_areas(Y, faces_i) <= 0
+    t6 = time.perf_counter()
+    uv_i = place(Y, islands, pack=pack, margin=margin, fixed=held)
     uv_split = uv_i
     corner_uv = uv_split[topo.corner_vertex]
     uv = np.zeros((len(V), 2))
@@ -226,10 +281,12 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
     np.minimum.at(first, topo.vertex_of, np.arange(len(uv_split)))
     used = first < len(uv_split)
     uv[used] = uv_split[first[used]]
-    t.update(topology=t1 - t0, local=t2 - t1, weights=t3 - t2, embedding=t4 - t3, align=t5 - t4)
+    t.update(topology=t1 - t0, local=t2 - t1, weights=t3 - t2, embedding=t4 - t3, align=t5 - t4, refine=t6 - t5)
     t.update({f"embedding.{k}": v for k, v in emb.timings.items()})
     t["total"] = time.perf_counter() - t0
     stats = dict(wstats, iterations=emb.iterations, vertices=len(V), faces=len(F), split_vertices=len(X))
+    if info is not None:
+        stats.update(refine_iterations=info.iterations, refine_energy=info.energy, reseeded=info.reseeded)
     return Parametrization(
         uv=uv,
         corner_uv=corner_uv,
@@ -240,7 +297,7 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
         flipped=flipped,
         eigenvalues=emb.eigenvalues,
         converged=emb.converged,
-        warnings=_warnings(topo, emb, clipped, wstats, flipped, int((~used).sum())),
+        warnings=_warnings(topo, emb, clipped, wstats, flipped, int((~used).sum()), info, reached),
         timings=t,
         stats=stats,
         _mesh=(V, F),

@@ -13,7 +13,7 @@ import numpy as np
 
 from .blocks import Islands
 
-__all__ = ["fit_rotation_scale", "orient_and_pack"]
+__all__ = ["fit_rotation_scale", "orient", "place", "signed_areas"]
 
 
 def fit_rotation_scale(Y_I, edges, length, edge_island, islands: Islands):
@@ -69,22 +69,26 @@ def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return 0.5 * ((u[b] - ua) * (v[c] - va) - (v[b] - va) * (u[c] - ua))
 
 
-def orient_and_pack(Y, faces, face_island, islands: Islands, pack: bool = True, margin: float = 0.02):
-    """Make every island counter-clockwise, align it with its principal axes, place it.
-
-    Mirroring fixes the reflection the eigenvectors leave free; the principal-axes
-    rotation makes the layout deterministic and compact. With ``pack`` the islands go
-    on shelves side by side in mesh units (true scale, no overlap), ``margin`` being a
-    fraction of the square root of the total area; otherwise every island keeps its
-    own frame centred at the origin.
-
-    Returns ``(uv (n, 2), flipped (m,) bool)``.
-    """
-    nI = islands.n
+def orient(Y, faces, face_island, islands: Islands):
+    """Mirror every island whose faces are mostly clockwise (the eigenvectors leave the
+    reflection free). Returns ``(Y (n, 2), folded (m,) bool)``."""
     area = signed_areas(Y, faces)
-    mirror = np.bincount(face_island, area, minlength=nI) < 0
+    mirror = np.bincount(face_island, area, minlength=islands.n) < 0
     Y = Y.copy()
     Y[mirror[islands.label], 0] *= -1.0
+    return Y, np.where(mirror[face_island], -area, area) <= 0
+
+
+def place(Y, islands: Islands, pack: bool = True, margin: float = 0.02, fixed=None):
+    """Align each island with its principal axes and put the islands side by side.
+
+    The rotation makes the layout deterministic and compact. With ``pack`` the islands
+    go on shelves in mesh units (true scale, no overlap), ``margin`` being a fraction of
+    the square root of their total area; otherwise each island is centred at the origin.
+    Islands in ``fixed`` (n_islands,) bool keep their frame (pinned islands).
+    """
+    nI = islands.n
+    fixed = np.zeros(nI, dtype=bool) if fixed is None else fixed
     c = islands.mean(Y)
     Yc = Y - islands.expand(c)
     cov = islands.gram(Yc, Yc)
@@ -95,15 +99,15 @@ def orient_and_pack(Y, faces, face_island, islands: Islands, pack: bool = True, 
     skew = islands.sum(Yr[:, :1] ** 3)[:, 0]
     turn = np.where(skew < 0, -1.0, 1.0)
     Yr *= islands.expand(turn)[:, None]
-    flipped = np.where(mirror[face_island], -area, area) <= 0  # rotations keep the signs
-    if not pack:
-        return Yr, flipped
-    lo = np.minimum.reduceat(Yr, islands.start[:-1], axis=0)  # islands are contiguous row blocks
-    hi = np.maximum.reduceat(Yr, islands.start[:-1], axis=0)
-    size = hi - lo
-    gap = margin * np.sqrt(max(float(np.prod(size, axis=1).sum()), 1e-300))
-    offset = _shelves(size, gap)
-    return Yr - islands.expand(lo) + islands.expand(offset), flipped
+    if pack:
+        lo = np.minimum.reduceat(Yr, islands.start[:-1], axis=0)  # islands are contiguous row blocks
+        hi = np.maximum.reduceat(Yr, islands.start[:-1], axis=0)
+        size = hi - lo
+        gap = margin * np.sqrt(max(float(np.prod(size, axis=1).sum()), 1e-300))
+        Yr = Yr - islands.expand(lo) + islands.expand(_shelves(size, gap))
+    if fixed.any():
+        Yr = np.where(fixed[islands.label][:, None], Y, Yr)
+    return Yr
 
 
 def _shelves(size: np.ndarray, gap: float) -> np.ndarray:

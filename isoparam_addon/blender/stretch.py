@@ -1,0 +1,48 @@
+"""Per-face stretch as a colour attribute, so the viewport shows where textures distort.
+
+A face's distortion is ``max(sigma1, 1 / sigma2)`` of its 3D-to-UV map, after the global
+scale that gives the UVs the mesh's area: 1 where the texture lands at true shape and
+scale (up to that scale), 2 where it is stretched or squeezed twice over. Colours run
+from white (1) through yellow to red (2 and more), on a log scale.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..solver import metrics
+
+__all__ = ["face_distortion", "colours", "summary", "ATTRIBUTE"]
+
+ATTRIBUTE = "isoparam_stretch"
+
+
+def face_distortion(V, F, corner_uv) -> np.ndarray:
+    """(t,) distortion of every triangle (inf for a collapsed UV triangle)."""
+    sig, area, ok = metrics.singular_values(V, F, corner_uv)
+    q1, q2 = corner_uv[:, 1] - corner_uv[:, 0], corner_uv[:, 2] - corner_uv[:, 0]
+    a2 = 0.5 * np.abs(q1[:, 0] * q2[:, 1] - q1[:, 1] * q2[:, 0]).sum()
+    k = np.sqrt(area.sum() / a2) if a2 > 0 else 1.0
+    sig = sig * k
+    with np.errstate(divide="ignore"):
+        d = np.maximum(sig[:, 0], np.where(sig[:, 1] > 0, 1.0 / sig[:, 1], np.inf))
+    return np.where(ok, d, 1.0)
+
+
+def colours(distortion: np.ndarray) -> np.ndarray:
+    """RGBA (k, 4) float32: white at 1, yellow at sqrt(2), red from 2 on."""
+    x = np.clip(np.log2(np.where(np.isfinite(distortion), distortion, 4.0)), 0.0, 1.0)
+    rgba = np.ones((len(x), 4), dtype=np.float32)
+    rgba[:, 1] = np.clip(2.0 * (1.0 - x), 0.0, 1.0)
+    rgba[:, 2] = np.clip(1.0 - 2.0 * x, 0.0, 1.0)
+    return rgba
+
+
+def summary(V, F, corner_uv):
+    """(worst, area-weighted mean) distortion of a layout."""
+    d = face_distortion(V, F, corner_uv)
+    _, area, ok = metrics.singular_values(V, F, corner_uv)
+    w = area * ok
+    finite = np.isfinite(d)
+    mean = float((d[finite] * w[finite]).sum() / max(w[finite].sum(), 1e-300))
+    return float(d.max()), mean

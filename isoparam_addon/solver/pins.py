@@ -1,0 +1,157 @@
+"""Pinned UVs: where they come from, and fitting an island to them.
+
+As in Blender: one pin places an island, two also fix its rotation and scale (a
+similarity fit), and with refinement three or more also shape it (the pins become
+Dirichlet constraints of :func:`.refine.refine`). Before refining, the pins are moved
+onto their targets by a harmonic deformation of the fitted layout, so the descent
+starts with every pin in place (in stages if one move would fold, see
+:func:`refine_to_pins`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+from .blocks import Islands
+from .errors import InvalidMeshError
+
+__all__ = ["pin_targets", "fit_to_pins", "similarity", "deform_to_pins", "refine_to_pins"]
+
+
+def pin_targets(topo, pins, n: int):
+    """Pinned split vertices and their UVs from per-corner input.
+
+    Parameters
+    ----------
+    topo : Topology
+    pins : (mask (m, 3) bool, uv (m, 3, 2) float)
+    n : int
+
+    Returns
+    -------
+    pinned : (n,) bool, target : (n, 2) float64
+        A vertex pinned at several corners with different UVs gets their mean.
+    """
+    mask, uv = pins
+    mask = np.asarray(mask, dtype=bool)
+    uv = np.asarray(uv, dtype=np.float64)
+    m = len(topo.corner_vertex)
+    if mask.shape != (m, 3) or uv.shape != (m, 3, 2):
+        raise InvalidMeshError("shape", f"pins must be ((m, 3) bool, (m, 3, 2) float) with m = {m}")
+    if not np.isfinite(uv[mask]).all():
+        raise InvalidMeshError("non_finite", "pinned UVs must be finite")
+    v = topo.corner_vertex[mask]
+    count = np.bincount(v, minlength=n)
+    target = np.zeros((n, 2))
+    for c in range(2):  # u and v
+        target[:, c] = np.bincount(v, uv[mask][:, c], minlength=n) / np.maximum(count, 1)
+    return count > 0, target
+
+
+def fit_to_pins(Y, pinned, target, islands: Islands):
+    """Per island with pins: the similarity (or, with one pin, the shift) onto them.
+
+    Returns ``(scale (k,), angle (k,), shift (k, 2), held (k,) bool)`` per island, the
+    map being ``y -> scale * R(angle) y + shift``; the identity where ``held`` is False.
+    """
+    w = pinned.astype(np.float64)
+    lab = islands.label
+    nI = islands.n
+    tot = np.bincount(lab, w, minlength=nI)
+    held = tot > 0
+    safe = np.where(held, tot, 1.0)
+    ms = np.stack([np.bincount(lab, Y[:, c] * w, minlength=nI) for c in range(2)], 1) / safe[:, None]
+    md = np.stack([np.bincount(lab, target[:, c] * w, minlength=nI) for c in range(2)], 1) / safe[:, None]
+    a = (Y - ms[lab]) * w[:, None]
+    b = (target - md[lab]) * w[:, None]
+    dot = np.bincount(lab, (a * b).sum(axis=1), minlength=nI)
+    cross = np.bincount(lab, a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], minlength=nI)
+    var = np.bincount(lab, (a * a).sum(axis=1), minlength=nI)
+    spread = var > 1e-24 * np.maximum(np.bincount(lab, (Y * Y).sum(axis=1) * w, minlength=nI), 1e-300)
+    angle = np.where(spread, np.arctan2(cross, dot), 0.0)
+    scale = np.where(spread, np.hypot(dot, cross) / np.where(spread, var, 1.0), 1.0)
+    c, si = np.cos(angle), np.sin(angle)
+    shift = md - scale[:, None] * np.stack([c * ms[:, 0] - si * ms[:, 1], si * ms[:, 0] + c * ms[:, 1]], 1)
+    shift = np.where(held[:, None], shift, 0.0)
+    return scale, angle, shift, held
+
+
+def similarity(Y, islands: Islands, scale, angle, shift, inverse=False):
+    """Apply the per-island map ``y -> scale R(angle) y + shift`` (or its inverse) to Y (n, 2)."""
+    lab = islands.label
+    s, th, t = scale[lab], angle[lab], shift[lab]
+    if inverse:
+        Y = Y - t
+        s, th = 1.0 / s, -th
+    c, si = np.cos(th), np.sin(th)
+    out = np.stack([c * Y[:, 0] - si * Y[:, 1], si * Y[:, 0] + c * Y[:, 1]], 1) * s[:, None]
+    return out if inverse else out + t
+
+
+def deform_to_pins(Y, faces, pinned, target):
+    """Move the pins onto their targets, the rest following harmonically (uniform weights)."""
+    n = len(Y)
+    move = target - Y
+    if not pinned.any() or np.abs(move[pinned]).max() == 0:
+        return Y
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    A = sp.coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n)).tocsr()
+    A = ((A + A.T) > 0).astype(np.float64)
+    Lap = (sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A).tocsr()
+    free = np.flatnonzero(~pinned)
+    d = np.zeros((n, 2))
+    d[pinned] = move[pinned]
+    if free.size:
+        K = Lap[free][:, free].tocsc()
+        K = K + sp.identity(len(free), format="csc") * 1e-12 * K.diagonal().mean()
+        d[free] = splu(K).solve(np.ascontiguousarray(-(Lap[free][:, np.flatnonzero(pinned)] @ move[pinned])))
+    return Y + d
+
+
+def refine_to_pins(refine, Y, faces, constrained, target, stages: int = 8):
+    """Refine with the constrained pins moved onto their targets, in stages if needed.
+
+    Moving every pin at once can fold the layout when the targets are far from where
+    the isometric layout puts them, and a barrier energy cannot start from a fold: the
+    move is then halved until it leaves no fold, refined (the barrier keeps the result
+    unfolded), and the rest of the way attempted again.
+
+    Parameters
+    ----------
+    refine : callable
+        ``refine(uv, pinned) -> Refinement``.
+    Y : (n, 2) float64
+    faces : (m, 3) int64
+    constrained : (n,) bool
+    target : (n, 2) float64
+
+    Returns
+    -------
+    (Refinement, reached: bool)
+    """
+    current = Y
+    info = None
+    fraction = 1.0
+    for _ in range(stages):  # a few halvings at most
+        goal = current + fraction * (target - current)
+        trial = deform_to_pins(current, faces, constrained, goal)
+        if _folds(trial, faces):
+            fraction *= 0.5
+            continue
+        trial[constrained] = goal[constrained]
+        info = refine(trial, constrained)
+        current = info.uv
+        if fraction == 1.0:
+            return info, True
+        fraction = 1.0
+    if info is None:
+        info = refine(current, np.zeros(len(current), dtype=bool))
+    return info, False
+
+
+def _folds(uv, faces) -> bool:
+    u, v = uv[:, 0], uv[:, 1]
+    a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
+    return bool((((u[b] - u[a]) * (v[c] - v[a]) - (v[b] - v[a]) * (u[c] - u[a])) <= 0).any())

@@ -1,0 +1,101 @@
+"""Isometric refinement: descent, exactness, unfolding, pins, and the paper untouched at 0."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from isoparam_addon.solver import metrics, parametrize
+from isoparam_addon.solver import examples as ex
+
+from .conftest import edge_length_error, procrustes_error
+
+CURVED = {
+    "peaks": lambda: ex.peaks(31),
+    "saddle": lambda: ex.saddle(25),
+    "spherical cap": lambda: ex.spherical_cap(12),
+    "random S": lambda: ex.s_surface_random(400, 5)[:2],
+}
+
+
+@pytest.mark.parametrize("name", CURVED)
+def test_refinement_lowers_the_energy_monotonically_and_never_folds(name):
+    V, F = CURVED[name]()
+    base = parametrize(V, F)
+    r = parametrize(V, F, refine=200)
+    e = np.array(r.stats["refine_energy"])
+    assert len(e) > 1 and np.all(np.diff(e) <= 1e-12 * e[:-1])  # never up
+    assert e[-1] >= 4.0 - 1e-9  # symmetric Dirichlet per area is at least 4
+    assert metrics.flipped(V, F, r.corner_uv) == 0 and not r.flipped.any()
+    before, after = base.distortion(), r.distortion()
+    assert after["symmetric_dirichlet"] < before["symmetric_dirichlet"]
+    assert after["stretch_l2"] < before["stretch_l2"]
+
+
+@settings(max_examples=10, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 10_000), n=st.integers(60, 400))
+def test_energy_never_goes_up_on_random_meshes(seed, n):
+    V, F, _ = ex.s_surface_random(n, seed)
+    r = parametrize(V, F, refine=50)
+    e = np.array(r.stats["refine_energy"])
+    assert np.all(np.diff(e) <= 1e-12 * e[:-1])
+    assert metrics.flipped(V, F, r.corner_uv) == 0
+
+
+@pytest.mark.parametrize(
+    "mesh", [lambda: ex.plane_random(500, 2), lambda: ex.cylinder_strips(30, (6, 15), seed=3), lambda: ex.s_surface(40, 10)]
+)
+def test_refinement_keeps_developable_meshes_exact(mesh):
+    V, F, U = mesh()
+    r = parametrize(V, F, refine=100)
+    assert edge_length_error(V, F, r.uv) < 1e-9
+    assert procrustes_error(U, r.uv) < 1e-9
+
+
+def test_refinement_unfolds_a_folded_four_step_layout():
+    V, F, _ = ex.s_surface_random(600, 0)  # the four-step layout folds 104 triangles here
+    assert metrics.flipped(V, F, parametrize(V, F).uv) > 50
+    r = parametrize(V, F, refine=100)
+    assert r.stats["reseeded"] and metrics.flipped(V, F, r.uv) == 0
+    assert any("folded" in w for w in r.warnings)
+    assert r.distortion()["edge_rms"] < 0.2
+
+
+def test_zero_iterations_is_the_paper_exactly():
+    V, F = ex.peaks(41)
+    a, b = parametrize(V, F), parametrize(V, F, refine=0)
+    assert np.array_equal(a.uv, b.uv)
+    assert metrics.residual_variance(V, F, a.uv) == pytest.approx(4.0168e-3, rel=1e-4)
+
+
+def _pins(F, targets):
+    mask = np.zeros(F.shape, dtype=bool)
+    uv = np.zeros(F.shape + (2,))
+    for v, t in targets.items():
+        mask[F == v] = True
+        uv[F == v] = t
+    return mask, uv
+
+
+@pytest.mark.parametrize("refine", [0, 100])
+def test_pins_hold(refine):
+    V, F = ex.peaks(21)
+    targets = {0: (0.0, 0.0), 20: (0.5, 0.02), 440: (0.26, 0.5), 220: (0.27, 0.24)}
+    r = parametrize(V, F, refine=refine, pins=_pins(F, targets))
+    for v, t in targets.items():
+        assert np.abs(r.corner_uv[F == v] - np.array(t)).max() < 1e-6
+    if refine:
+        assert metrics.flipped(V, F, r.corner_uv) == 0  # four pins shape the island; no folds
+
+
+def test_two_pins_fix_placement_rotation_and_scale_only():
+    V, F = ex.peaks(21)
+    free = parametrize(V, F, refine=100)
+    a, b = free.uv[0], free.uv[20]
+    # put the same two vertices somewhere else, rotated and scaled
+    targets = {0: (1.0, 1.0), 20: (1.0, 1.0 + 2.0 * np.linalg.norm(b - a))}
+    r = parametrize(V, F, refine=100, pins=_pins(F, targets))
+    for v, t in targets.items():
+        assert np.abs(r.corner_uv[F == v] - np.array(t)).max() < 1e-6
+    # same shape, twice the size: edge lengths scale, relative error unchanged
+    assert metrics.edge_rms(V, F, r.corner_uv) == pytest.approx(metrics.edge_rms(V, F, free.uv), rel=1e-6)
