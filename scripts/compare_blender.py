@@ -1,16 +1,19 @@
 """isoparam against Blender's own unwrap, in one Blender process.
 
-For every mesh, each method unwraps the whole mesh in edit mode through its operator
-(``uv.isometric_unwrap``; ``uv.unwrap`` with ANGLE_BASED, CONFORMAL, MINIMUM_STRETCH),
-end to end: mesh I/O, solve, packing. Times are medians of ``--repeat`` runs (the slow
-built-ins run fewer times on large meshes, see ``--slow-repeat``). Distortion is
-measured on the UVs each method wrote, scale-normalised (solver/metrics.py).
+For every mesh, each method unwraps the whole mesh in edit mode through its operator:
+``uv.isometric_unwrap`` with its default refinement and without (``refine=0``, the
+paper's method), and ``uv.unwrap`` with ANGLE_BASED, CONFORMAL and MINIMUM_STRETCH (SLIM,
+10 iterations). End to end: mesh I/O, solve, packing. Times are medians of ``--repeat``
+runs; the built-ins run ``--slow-repeat`` times on meshes above 20k vertices (SLIM
+takes minutes there). Distortion is measured on the UVs each method wrote, scale-
+normalised (solver/metrics.py). With ``--render``, checker-textured Cycles renders of
+every method go side by side into one PNG per mesh.
 
-    python scripts/compare_blender.py                       # peaks 41x41 and 100k
-    python scripts/compare_blender.py --meshes peaks41 --repeat 7
-    python scripts/compare_blender.py --io                  # mesh read/write speed, 1M corners
+    python scripts/compare_blender.py                      # the issue-4 set, incl. a 100k peaks
+    python scripts/compare_blender.py --meshes peaks41 --repeat 7 --render
+    python scripts/compare_blender.py --io                 # mesh read/write speed, 1M corners
 
-Writes ``out/compare/<name>.md`` (and .json) and prints the table.
+Writes ``out/compare/results.md`` (and .json) and prints the tables.
 """
 
 from __future__ import annotations
@@ -27,72 +30,36 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "scripts"))
 os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="isoparam-compare-"))
 
 import bpy  # noqa: E402
+from blender_util import METHODS, add_object, edit, read_uvs, render, suzanne  # noqa: E402
 
 import isoparam_addon  # noqa: E402
 from isoparam_addon.blender import mesh_io  # noqa: E402
 from isoparam_addon.solver import examples as ex  # noqa: E402
 from isoparam_addon.solver import metrics  # noqa: E402
 
-MESHES = {
-    "peaks41": lambda: ex.peaks(41),
-    "peaks100k": lambda: ex.peaks(316),
-    "s_regular": lambda: ex.s_surface(50, 12)[:2],
-    "s_random": lambda: ex.s_surface_random(600, 3)[:2],
+MESHES = {  # name: (title, () -> (V, F, seams or None))
+    "peaks41": ("peaks 41x41, z/3", lambda: (*ex.peaks(41), None)),
+    "peaks100k": ("peaks 316x316, z/3", lambda: (*ex.peaks(316), None)),
+    "s_random": ("S-surface, random Delaunay 600", lambda: (*ex.s_surface_random(600, 3)[:2], None)),
+    "cap": ("spherical cap (K > 0)", lambda: (*ex.spherical_cap(30), None)),
+    "saddle": ("saddle z = 0.6 (x^2 - y^2) (K < 0)", lambda: (*ex.saddle(61, 0.6), None)),
+    "suzanne": ("Suzanne, subdivided twice, seams from Smart UV Project", lambda: suzanne(2)),
 }
-
-METHODS = {
-    "isoparam": lambda: bpy.ops.uv.isometric_unwrap(),
-    "ANGLE_BASED": lambda: bpy.ops.uv.unwrap(method="ANGLE_BASED", margin=0.001),
-    "CONFORMAL": lambda: bpy.ops.uv.unwrap(method="CONFORMAL", margin=0.001),
-    "MINIMUM_STRETCH": lambda: bpy.ops.uv.unwrap(method="MINIMUM_STRETCH", iterations=10, margin=0.001),
-}
+DEFAULT_MESHES = ["peaks41", "s_random", "cap", "saddle", "suzanne", "peaks100k"]
+DEFAULT_METHODS = ["isoparam", "isoparam (paper, no refinement)", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
 
 
-def add_object(name, V, F):
-    me = bpy.data.meshes.new(name)
-    me.vertices.add(len(V))
-    me.vertices.foreach_set("co", np.asarray(V, dtype=np.float32).ravel())
-    me.loops.add(3 * len(F))
-    me.loops.foreach_set("vertex_index", np.asarray(F, dtype=np.int32).ravel())
-    me.polygons.add(len(F))
-    me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F), 3, dtype=np.int32))
-    me.update(calc_edges=True)
-    ob = bpy.data.objects.new(name, me)
-    bpy.context.scene.collection.objects.link(ob)
-    return ob
-
-
-def edit(ob):
-    for o in bpy.context.scene.objects:
-        o.select_set(o is ob)
-    bpy.context.view_layer.objects.active = ob
-    bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
-
-
-def read_uvs(ob):
-    me = ob.data
-    me.calc_loop_triangles()
-    tri = np.empty(3 * len(me.loop_triangles), np.int32)
-    me.loop_triangles.foreach_get("loops", tri)
-    tri = tri.reshape(-1, 3)
-    uv = np.empty(2 * len(me.loops), np.float32)
-    me.uv_layers.active.uv.foreach_get("vector", uv)
-    cv = np.empty(len(me.loops), np.int32)
-    me.attributes[".corner_vert"].data.foreach_get("value", cv)
-    return cv[tri], uv.reshape(-1, 2)[tri].astype(np.float64)
-
-
-def measure(name, V, F, methods, repeat, slow_repeat):
+def measure(name, V, F, seams, methods, repeat, slow_repeat, render_dir=None):
     rows = {}
     for method in methods:
         bpy.ops.wm.read_homefile(use_empty=True)
-        ob = add_object(name, V, F)
+        ob = add_object(name, V, F, seams)
         edit(ob)
-        slow = method != "isoparam" and len(V) > 20_000
+        slow = not method.startswith("isoparam") and len(V) > 20_000
         runs = slow_repeat if slow else repeat
         if not slow:
             METHODS[method]()  # warm-up
@@ -106,20 +73,22 @@ def measure(name, V, F, methods, repeat, slow_repeat):
         d = metrics.distortion(V, Ft, cuv)
         rows[method] = dict(seconds=float(np.median(times)), runs=runs, **d)
         print(
-            f"  {name:10s} {method:16s} {rows[method]['seconds']:8.3f} s  edge RMS {d['edge_rms']:.4f}  "
-            f"L2 {d['stretch_l2']:.3f}  flips {d['flipped']}",
+            f"  {name:10s} {method:32s} {rows[method]['seconds']:8.3f} s  edge RMS {d['edge_rms']:.4f}  "
+            f"L2 {d['stretch_l2']:.4f}  SD {d['symmetric_dirichlet']:.4f}  flips {d['flipped']}",
             file=sys.stderr,
             flush=True,
         )
+        if render_dir is not None:
+            render(ob, render_dir / f"{name}_{method.split()[0]}_{len(rows)}.png", samples=16)
     return rows
 
 
-def table(name, n_vertices, rows):
+def table(title, n_vertices, rows):
     ours = rows.get("isoparam", {}).get("seconds")
     lines = [
-        f"### {name} ({n_vertices:,} vertices)",
+        f"### {title} ({n_vertices:,} vertices)",
         "",
-        "| method | time (s) | runs | x isoparam time | relative RMS edge error | L2 stretch | Linf stretch "
+        "| method | time (s) | runs | time / isoparam | relative RMS edge error | L2 stretch | Linf stretch "
         "| symmetric Dirichlet | flips |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
@@ -127,7 +96,7 @@ def table(name, n_vertices, rows):
         ratio = f"{r['seconds'] / ours:.1f}" if ours else "-"
         lines.append(
             f"| {method} | {r['seconds']:.3f} | {r['runs']} | {ratio} | {r['edge_rms']:.4f} | "
-            f"{r['stretch_l2']:.3f} | {r['stretch_linf']:.2f} | {r['symmetric_dirichlet']:.3f} | "
+            f"{r['stretch_l2']:.4f} | {r['stretch_linf']:.2f} | {r['symmetric_dirichlet']:.4f} | "
             f"{r['flipped']} |"
         )
     return "\n".join(lines)
@@ -149,19 +118,20 @@ def io_benchmark(repeat: int) -> str:
         writes.append(time.perf_counter() - t)
     corners = len(ob.data.loops)
     return (
-        f"### mesh I/O ({corners:,} corners)\n\n| step | median (s) |\n|---|---|\n"
+        f"### mesh I/O ({corners:,} corners, median of {repeat})\n\n| step | seconds |\n|---|---|\n"
         f"| read positions, faces, selection, seams, pins, UVs, triangles | {np.median(reads):.3f} |\n"
-        f"| write UVs | {np.median(writes):.3f} |"
+        f"| write UVs | {np.median(writes):.4f} |"
     )
 
 
 def main(argv=None) -> int:
     argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else argv
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--meshes", nargs="+", default=["peaks41", "peaks100k"], choices=list(MESHES))
-    ap.add_argument("--methods", nargs="+", default=["isoparam", "ANGLE_BASED", "CONFORMAL"], choices=list(METHODS))
+    ap.add_argument("--meshes", nargs="+", default=DEFAULT_MESHES, choices=list(MESHES))
+    ap.add_argument("--methods", nargs="+", default=DEFAULT_METHODS, choices=list(METHODS))
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--slow-repeat", type=int, default=1, help="runs of the built-ins on meshes above 20k vertices")
+    ap.add_argument("--render", action="store_true", help="checker renders side by side (meshes below 20k)")
     ap.add_argument("--io", action="store_true", help="benchmark mesh I/O instead")
     ap.add_argument("--out", default="out/compare")
     args = ap.parse_args(argv)
@@ -175,14 +145,32 @@ def main(argv=None) -> int:
         return 0
     parts, data = [], {}
     for name in args.meshes:
-        V, F = MESHES[name]()
-        rows = measure(name, V, F, args.methods, args.repeat, args.slow_repeat)
+        title, make = MESHES[name]
+        V, F, seams = make()
+        shots = out / "renders" if args.render and len(V) <= 20_000 else None
+        if shots:
+            shots.mkdir(exist_ok=True)
+        rows = measure(name, V, F, seams, args.methods, args.repeat, args.slow_repeat, shots)
         data[name] = rows
-        parts.append(table(name, len(V), rows))
+        parts.append(table(title, len(V), rows))
+        if shots:
+            import matplotlib
+
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+
+            fig, axes = plt.subplots(1, len(rows), figsize=(3.6 * len(rows), 3.2))
+            for k, (ax, method) in enumerate(zip(np.atleast_1d(axes), rows), start=1):
+                ax.imshow(plt.imread(shots / f"{name}_{method.split()[0]}_{k}.png"))
+                ax.set_title(method, fontsize=8)
+                ax.axis("off")
+            fig.suptitle(title)
+            fig.tight_layout()
+            fig.savefig(out / f"{name}_renders.png", dpi=100)
+            plt.close(fig)
     text = "\n\n".join(parts)
-    stem = "_".join(args.meshes)
-    (out / f"{stem}.md").write_text(text + "\n")
-    (out / f"{stem}.json").write_text(json.dumps(data, indent=1))
+    (out / "results.md").write_text(text + "\n")
+    (out / "results.json").write_text(json.dumps(data, indent=1))
     print(text)
     return 0
 

@@ -1,13 +1,15 @@
-"""The demo: unwrap the embedded peaks and S-surface meshes in Blender, four ways.
+"""The demo: unwrap the embedded peaks and S-surface meshes in Blender, five ways.
 
-In one Blender process (bpy), each mesh is unwrapped with Isometric Unwrap and with
-Blender's ANGLE_BASED, CONFORMAL and MINIMUM_STRETCH through their operators. Writes
-to ``out/demo/``:
+In one Blender process (bpy), each mesh is unwrapped through the operators: Isometric
+Unwrap with its default refinement and without it (the paper's method), and Blender's
+MINIMUM_STRETCH, ANGLE_BASED and CONFORMAL. Writes to ``out/demo/``:
 
 * ``results.md``: time (median of runs), residual variance of edge lengths, relative RMS
   edge error, L2 / Linf stretch, flips;
-* ``<mesh>_layouts.png``: the four UV layouts side by side (folded triangles in red);
-* ``<mesh>_renders.png``: the four checker-textured renders (Cycles, CPU) side by side.
+* ``<mesh>_layouts.png``: the UV layouts side by side (folded triangles in red);
+* ``<mesh>_stretch.png``: the same layouts as stretch heat maps, in the colours of the
+  viewport's Show UV Stretch;
+* ``<mesh>_renders.png``: the checker-textured renders (Cycles, CPU) side by side.
 
 Run through ``bash scripts/demo.sh``, which sets up the environment first.
 """
@@ -30,10 +32,11 @@ os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="isopara
 
 import bpy  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
-from compare_blender import METHODS, add_object, edit, read_uvs  # noqa: E402
-from figures import draw_layout  # noqa: E402
+from blender_util import METHODS, add_object, edit, read_uvs, render  # noqa: E402
+from figures import draw_layout, draw_stretch, stretch_key  # noqa: E402
 
 import isoparam_addon  # noqa: E402
+from isoparam_addon.blender import stretch  # noqa: E402
 from isoparam_addon.solver import examples as ex  # noqa: E402
 from isoparam_addon.solver import metrics  # noqa: E402
 
@@ -42,7 +45,7 @@ MESHES = {  # file stem: (title, mesh, camera elevation)
     "s_regular": ("S-surface, regular (600 vertices)", lambda: ex.s_surface(50, 12)[:2], 0.35),
     "s_random": ("S-surface, random Delaunay (600 vertices)", lambda: ex.s_surface_random(600, 3)[:2], 0.35),
 }
-ORDER = ["isoparam", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
+ORDER = ["isoparam", "isoparam (paper, no refinement)", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
 
 
 def scaled_residual_variance(V, F, cuv) -> float:
@@ -50,57 +53,6 @@ def scaled_residual_variance(V, F, cuv) -> float:
     l3, l2 = metrics.edge_lengths(V, F, cuv)
     s = float((l2 * l3).sum() / max((l2 * l2).sum(), 1e-300))
     return float(np.var(s * l2 - l3))
-
-
-def checker_material():
-    mat = bpy.data.materials.new("checker")
-    if bpy.app.version < (5, 0, 0):  # always on from 5.0
-        mat.use_nodes = True
-    nodes, links = mat.node_tree.nodes, mat.node_tree.links
-    bsdf = next(n for n in nodes if n.type == "BSDF_PRINCIPLED")
-    coords = nodes.new("ShaderNodeTexCoord")
-    checker = nodes.new("ShaderNodeTexChecker")
-    checker.inputs["Scale"].default_value = 24.0
-    checker.inputs["Color1"].default_value = (0.92, 0.92, 0.92, 1.0)
-    checker.inputs["Color2"].default_value = (0.08, 0.25, 0.65, 1.0)
-    links.new(coords.outputs["UV"], checker.inputs["Vector"])
-    links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
-    return mat
-
-
-def render(ob, path: Path, elevation: float, samples: int) -> None:
-    """A checker-textured Cycles render (CPU) of ``ob``, framed from above at an angle."""
-    scene = bpy.context.scene
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = samples
-    scene.cycles.use_denoising = False
-    scene.render.resolution_x, scene.render.resolution_y = 480, 360
-    scene.render.film_transparent = False
-    ob.data.materials.clear()
-    ob.data.materials.append(checker_material())
-    lo = np.array([min(v[i] for v in ob.bound_box) for i in range(3)])
-    hi = np.array([max(v[i] for v in ob.bound_box) for i in range(3)])
-    centre, radius = (lo + hi) / 2, float(np.linalg.norm(hi - lo)) / 2
-    cam_data = bpy.data.cameras.new("cam")
-    cam = bpy.data.objects.new("cam", cam_data)
-    scene.collection.objects.link(cam)
-    cam.location = centre + radius * np.array([1.3, -1.6, 2.2 * elevation + 0.4])
-    target = bpy.data.objects.new("target", None)
-    scene.collection.objects.link(target)
-    target.location = centre
-    track = cam.constraints.new("TRACK_TO")
-    track.target = target
-    scene.camera = cam
-    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
-    sun.data.energy = 3.0
-    sun.rotation_euler = (0.6, 0.2, 0.8)
-    scene.collection.objects.link(sun)
-    if scene.world is None:
-        scene.world = bpy.data.worlds.new("world")
-    scene.world.color = (0.35, 0.35, 0.38)
-    scene.render.filepath = str(path)
-    bpy.ops.render.render(write_still=True)
 
 
 def main(argv=None) -> int:
@@ -145,7 +97,7 @@ def main(argv=None) -> int:
                 f"{d['stretch_linf']:.2f} | {d['flipped']} |"
             )
             if not args.no_render:
-                render(ob, out / f"render_{stem}_{method}.png", elevation, args.samples)
+                render(ob, out / f"render_{stem}_{ORDER.index(method)}.png", elevation, args.samples)
             print(f"{title:45s} {method:16s} done", file=sys.stderr, flush=True)
         fig, axes = plt.subplots(1, len(ORDER), figsize=(4.2 * len(ORDER), 4.4))
         for ax, method in zip(axes, ORDER):
@@ -155,10 +107,22 @@ def main(argv=None) -> int:
         fig.tight_layout()
         fig.savefig(out / f"{stem}_layouts.png", dpi=100)
         plt.close(fig)
+        # the same layouts as stretch heat maps, in the viewport's colours (Show UV Stretch)
+        fig, axes = plt.subplots(1, len(ORDER), figsize=(4.4 * len(ORDER), 4.4))
+        for ax, method in zip(axes, ORDER):
+            Ft, cuv, _, _ = layouts[method]
+            worst, mean = stretch.summary(V, Ft, cuv)
+            rgba = stretch.colours(stretch.face_distortion(V, Ft, cuv))
+            draw_stretch(ax, Ft, cuv, rgba, f"{method}\nstretch worst {worst:.2f}, mean {mean:.3f}")
+        stretch_key(fig, axes[-1], stretch.colours)
+        fig.suptitle(f"{title}: stretch per face in UV space")
+        fig.tight_layout()
+        fig.savefig(out / f"{stem}_stretch.png", dpi=100)
+        plt.close(fig)
         if not args.no_render:
             fig, axes = plt.subplots(1, len(ORDER), figsize=(4.2 * len(ORDER), 3.5))
             for ax, method in zip(axes, ORDER):
-                ax.imshow(plt.imread(out / f"render_{stem}_{method}.png"))
+                ax.imshow(plt.imread(out / f"render_{stem}_{ORDER.index(method)}.png"))
                 ax.set_title(method, fontsize=10)
                 ax.axis("off")
             fig.suptitle(f"{title}: checker texture through each method's UVs (Cycles)")
@@ -168,7 +132,10 @@ def main(argv=None) -> int:
     table = "\n".join(lines)
     (out / "results.md").write_text(table + "\n")
     print(table)
-    print(f"\nwrote {out}/results.md, *_layouts.png (UV layouts) and *_renders.png (checker renders)")
+    print(
+        f"\nwrote {out}/results.md, *_layouts.png (UV layouts), *_stretch.png (stretch heat maps in UV"
+        " space) and *_renders.png (checker renders)"
+    )
     return 0
 
 

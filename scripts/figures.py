@@ -33,6 +33,30 @@ def draw_layout(ax, F, uv, flipped=None, title=""):
     ax.set_yticks([])
 
 
+def draw_stretch(ax, F, uv, rgba, title=""):
+    """A UV layout with every face filled by its stretch colour (``rgba`` (m, 4), the
+    viewport's colours from isoparam_addon/blender/stretch.py), with the colour key."""
+    cuv = _corner(F, uv)
+    ax.add_collection(PolyCollection(cuv, facecolors=rgba, edgecolors=(0, 0, 0, 0.15), linewidths=0.1))
+    ax.autoscale()
+    ax.set_aspect("equal")
+    ax.set_title(title, fontsize=9)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_facecolor("#d8d8d8")
+
+
+def stretch_key(fig, ax, colours):
+    """Colour bar for :func:`draw_stretch`: ``colours`` maps distortion (k,) to RGBA (k, 4)."""
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import ListedColormap, LogNorm
+
+    cmap = ListedColormap(colours(2.0 ** np.linspace(0.0, 1.0, 256)))
+    bar = fig.colorbar(ScalarMappable(LogNorm(1.0, 2.0), cmap), ax=ax, fraction=0.05, pad=0.02)
+    bar.set_ticks([1.0, 1.25, 1.5, 2.0], labels=["1 (true scale)", "1.25", "1.5", "2+"])
+    bar.set_label("stretch max(s1, 1/s2)", fontsize=8)
+
+
 def checker_colors(F, uv, squares=12):
     """Face colours from a checker in UV space, squares sized to the layout's extent."""
     cuv = _corner(F, uv)

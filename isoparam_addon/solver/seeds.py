@@ -1,0 +1,150 @@
+"""Fold-free starting layouts for islands whose four-step layout folds.
+
+On a strongly curved island (measured: a Smart UV Project island wrapping the back of
+Suzanne's head, 785 vertices, 729 of its 1351 triangles folded) the two smallest
+eigenvectors of M describe a folded sheet, and no barrier descent can repair a layout
+that starts folded. Such islands restart from
+
+1. a *least-squares conformal map* (Levy et al. 2002) with two pinned vertices: free
+   boundary, low distortion on near-developable islands, fold-free in practice though
+   not by theorem; and where that folds too,
+2. a *Tutte embedding* with mean-value weights (Floater 2003) and the boundary on a circle
+   by chord length: fold-free by Tutte's and Floater's theorems, but far from isometric.
+
+Both are scaled per island to the island's 3D area. Each solve covers only the chosen
+islands' vertices, so its cost follows the islands that need it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+from .blocks import Islands
+
+__all__ = ["lscm", "tutte", "signed_double_areas"]
+
+
+def signed_double_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Twice the signed UV area of every face, positive counter-clockwise: (m,)."""
+    u, v = uv[:, 0], uv[:, 1]
+    a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
+    return (u[b] - u[a]) * (v[c] - v[a]) - (v[b] - v[a]) * (u[c] - u[a])
+
+
+def _scale_to_area(uv, faces, islands: Islands, area3d, which):
+    fi = islands.label[faces[:, 0]]
+    a2 = np.bincount(fi, np.abs(signed_double_areas(uv, faces)) / 2, minlength=islands.n)
+    a3 = np.bincount(fi, area3d, minlength=islands.n)
+    s = np.where(which, np.sqrt(a3 / np.where(a2 > 0, a2, 1.0)), 1.0)
+    return uv * s[islands.label][:, None]
+
+
+def _solve_free(K, rhs, free):
+    """Solve ``K[free][:, free] x = rhs[free]`` (rhs (n, k)); zeros elsewhere."""
+    out = np.zeros_like(rhs)
+    if free.size:
+        A = K[free][:, free].tocsc()
+        out[free] = splu(A).solve(np.ascontiguousarray(rhs[free]))
+    return out
+
+
+def lscm(X, faces, islands: Islands, frames, which: np.ndarray) -> np.ndarray:
+    """Least-squares conformal map of the islands flagged in ``which`` (n_islands,) bool.
+
+    Minimises ``sum_f A_f |grad u - rot90(grad v)|^2`` (the Cauchy-Riemann residual, whose
+    solutions preserve orientation) with two vertices pinned per island: the extremes
+    along the island's longest coordinate axis, at their 3D distance apart. Rows of other
+    islands are zero. Returns (n, 2).
+    """
+    n = len(X)
+    sel_v = which[islands.label]
+    sel_f = np.flatnonzero(which[islands.label[faces[:, 0]]])
+    # pins: rows are sorted by island, so per-island extremes are reduceat / sorted runs
+    starts = islands.start[:-1]
+    extent = np.maximum.reduceat(X, starts, axis=0) - np.minimum.reduceat(X, starts, axis=0)
+    axis = np.argmax(extent, axis=1)
+    coord = X[np.arange(n), axis[islands.label]]
+    order = np.lexsort((coord, islands.label))
+    pin_a, pin_b = order[starts], order[islands.start[1:] - 1]
+    pin_a, pin_b = pin_a[which], pin_b[which]
+    uv = np.zeros((n, 2))
+    uv[pin_b, 0] = np.linalg.norm(X[pin_b] - X[pin_a], axis=1)
+    w = sp.diags(np.sqrt(frames.area[sel_f]))
+    Dx, Dy = w @ frames.Dx[sel_f], w @ frames.Dy[sel_f]
+    A = sp.bmat([[Dx, -Dy], [Dy, Dx]]).tocsr()  # residuals u_x - v_y and u_y + v_x
+    K = (A.T @ A).tocsr()
+    z = uv.T.ravel()  # (u, v) stacked
+    pinned = np.zeros(n, dtype=bool)
+    pinned[pin_a] = pinned[pin_b] = True
+    free1 = np.flatnonzero(sel_v & ~pinned)
+    free = np.concatenate([free1, free1 + n])
+    fixed = np.concatenate([pin_a, pin_b, pin_a + n, pin_b + n])
+    rhs = -(K[:, fixed] @ z[fixed])
+    z = z + _solve_free(K, rhs[:, None], free)[:, 0]
+    uv = np.stack([z[:n], z[n:]], axis=1)
+    return _scale_to_area(uv, faces, islands, frames.area, which)
+
+
+def tutte(X, faces, he_twin, islands: Islands, frames, which: np.ndarray) -> np.ndarray:
+    """Mean-value Tutte embedding of the islands flagged in ``which``, boundary on a
+    circle by chord length. Each island must have one boundary loop. Returns (n, 2)."""
+    n = len(X)
+    sel_v = which[islands.label]
+    # boundary loops: half-edge a -> b on the boundary; each island has one loop
+    h = np.flatnonzero(he_twin < 0)
+    flat = faces.ravel()
+    a, b = flat[h], faces[:, [1, 2, 0]].ravel()[h]
+    nxt = np.full(n, -1, dtype=np.int64)
+    nxt[a] = b
+    on_loop = np.zeros(n, dtype=bool)
+    on_loop[a] = True
+    # rank each loop's vertices by pointer jumping (list ranking) from its lowest vertex
+    start = np.full(islands.n, n, dtype=np.int64)
+    np.minimum.at(start, islands.label[a], a)
+    prev = np.full(n, -1, dtype=np.int64)
+    prev[b] = a
+    dist = on_loop.astype(np.int64)
+    pp = np.where(on_loop, prev, -1)
+    dist[start] = 0
+    pp[start] = -1
+    while np.any(pp >= 0):  # log2(loop length) rounds
+        live = pp >= 0
+        dist = np.where(live, dist + dist[np.maximum(pp, 0)], dist)
+        pp = np.where(live, pp[np.maximum(pp, 0)], -1)
+    # chord-length parameter along the loop
+    seg = np.zeros(n)
+    seg[a] = np.linalg.norm(X[b] - X[a], axis=1)  # from a to its successor
+    loop_vertices = np.flatnonzero(on_loop)
+    order = loop_vertices[np.lexsort((dist[loop_vertices], islands.label[loop_vertices]))]
+    isl = islands.label[order]
+    cum = np.cumsum(seg[order])
+    first = np.searchsorted(isl, np.arange(islands.n))
+    offset = np.concatenate([[0.0], cum])[first]
+    total = np.bincount(isl, seg[order], minlength=islands.n)
+    s_before = np.concatenate([[0.0], cum[:-1]]) - offset[isl]
+    angle = 2 * np.pi * s_before / np.where(total[isl] > 0, total[isl], 1.0)
+    uv = np.zeros((n, 2))
+    uv[order, 0], uv[order, 1] = np.cos(angle), np.sin(angle)
+    # mean-value weights w_ij = (tan(a1/2) + tan(a2/2)) / |x_i - x_j|, all positive
+    rows, cols, vals = [], [], []
+    P = X[faces]
+    for k in range(3):  # the three corners of every face
+        i, o = faces[:, k], faces[:, (k + 2) % 3]
+        j = faces[:, (k + 1) % 3]
+        e1, e2 = P[:, (k + 1) % 3] - P[:, k], P[:, (k + 2) % 3] - P[:, k]
+        n1 = np.maximum(np.linalg.norm(e1, axis=1), 1e-300)
+        n2 = np.maximum(np.linalg.norm(e2, axis=1), 1e-300)
+        ang = np.arctan2(np.linalg.norm(np.cross(e1, e2), axis=1), (e1 * e2).sum(axis=1))
+        tn = np.tan(np.clip(ang, 1e-12, np.pi - 1e-12) / 2)
+        rows += [i, i]
+        cols += [j, o]
+        vals += [tn / n1, tn / n2]
+    Wm = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+    Lm = (sp.diags(np.asarray(Wm.sum(axis=1)).ravel()) - Wm).tocsr()
+    fixed = np.flatnonzero(on_loop)
+    rhs = -(Lm[:, fixed] @ uv[fixed])
+    uv = uv + _solve_free(Lm, rhs, np.flatnonzero(sel_v & ~on_loop))
+    uv[~sel_v] = 0.0
+    return _scale_to_area(uv, faces, islands, frames.area, which)

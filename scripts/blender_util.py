@@ -1,0 +1,140 @@
+"""bpy helpers shared by the demo and the comparison scripts: meshes in and out of
+Blender, the methods under comparison, checker-textured Cycles renders."""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+METHODS = {
+    "isoparam": lambda: bpy.ops.uv.isometric_unwrap(),
+    "isoparam (paper, no refinement)": lambda: bpy.ops.uv.isometric_unwrap(refine=0),
+    "ANGLE_BASED": lambda: bpy.ops.uv.unwrap(method="ANGLE_BASED", margin=0.001),
+    "CONFORMAL": lambda: bpy.ops.uv.unwrap(method="CONFORMAL", margin=0.001),
+    "MINIMUM_STRETCH": lambda: bpy.ops.uv.unwrap(method="MINIMUM_STRETCH", iterations=10, margin=0.001),
+}
+
+
+def add_object(name, V, F, seams=None):
+    """A triangle-mesh object from arrays, with optional seams (k, 2) vertex pairs."""
+    me = bpy.data.meshes.new(name)
+    me.vertices.add(len(V))
+    me.vertices.foreach_set("co", np.asarray(V, dtype=np.float32).ravel())
+    me.loops.add(3 * len(F))
+    me.loops.foreach_set("vertex_index", np.asarray(F, dtype=np.int32).ravel())
+    me.polygons.add(len(F))
+    me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F), 3, dtype=np.int32))
+    me.update(calc_edges=True)
+    if seams is not None and len(seams):
+        ev = np.empty(2 * len(me.edges), np.int32)
+        me.edges.foreach_get("vertices", ev)
+        ev = np.sort(ev.reshape(-1, 2), axis=1)
+        n = len(V)
+        key = ev[:, 0].astype(np.int64) * n + ev[:, 1]
+        s = np.sort(np.asarray(seams), axis=1)
+        me.edges.foreach_set("use_seam", np.isin(key, s[:, 0].astype(np.int64) * n + s[:, 1]))
+    ob = bpy.data.objects.new(name, me)
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def edit(ob):
+    for o in bpy.context.scene.objects:
+        o.select_set(o is ob)
+    bpy.context.view_layer.objects.active = ob
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+
+
+def read_uvs(ob):
+    """(triangles as vertex indices (t, 3), their corner UVs (t, 3, 2)) of the active UV map."""
+    me = ob.data
+    me.calc_loop_triangles()
+    tri = np.empty(3 * len(me.loop_triangles), np.int32)
+    me.loop_triangles.foreach_get("loops", tri)
+    tri = tri.reshape(-1, 3)
+    uv = np.empty(2 * len(me.loops), np.float32)
+    me.uv_layers.active.uv.foreach_get("vector", uv)
+    cv = np.empty(len(me.loops), np.int32)
+    me.attributes[".corner_vert"].data.foreach_get("value", cv)
+    return cv[tri], uv.reshape(-1, 2)[tri].astype(np.float64)
+
+
+def suzanne(levels: int = 2):
+    """Suzanne subdivided, triangulated, with seams from Smart UV Project's islands:
+    a scan-like curved mesh with several islands. Returns (V, F, seams)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_monkey_add()
+    ob = bpy.context.active_object
+    mod = ob.modifiers.new("subsurf", "SUBSURF")
+    mod.levels = levels
+    bpy.ops.object.modifier_apply(modifier=mod.name)
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.mesh.quads_convert_to_tris()
+    bpy.ops.uv.smart_project(angle_limit=1.15, island_margin=0.0)
+    # before 5.0, seams_from_islands sees no UV selection headless unless sync select is on
+    settings = bpy.context.scene.tool_settings
+    sync, settings.use_uv_select_sync = settings.use_uv_select_sync, True
+    bpy.ops.uv.seams_from_islands()
+    settings.use_uv_select_sync = sync
+    bpy.ops.object.mode_set(mode="OBJECT")
+    me = ob.data
+    V = np.empty(3 * len(me.vertices), np.float32)
+    me.vertices.foreach_get("co", V)
+    cv = np.empty(len(me.loops), np.int32)
+    me.loops.foreach_get("vertex_index", cv)
+    ev = np.empty(2 * len(me.edges), np.int32)
+    me.edges.foreach_get("vertices", ev)
+    seam = np.zeros(len(me.edges), bool)
+    me.edges.foreach_get("use_seam", seam)
+    return V.reshape(-1, 3).astype(np.float64), cv.reshape(-1, 3).astype(np.int64), ev.reshape(-1, 2)[seam]
+
+
+def checker_material(scale: float = 24.0):
+    mat = bpy.data.materials.new("checker")
+    if bpy.app.version < (5, 0, 0):  # always on from 5.0
+        mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    bsdf = next(n for n in nodes if n.type == "BSDF_PRINCIPLED")
+    coords = nodes.new("ShaderNodeTexCoord")
+    checker = nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = scale
+    checker.inputs["Color1"].default_value = (0.92, 0.92, 0.92, 1.0)
+    checker.inputs["Color2"].default_value = (0.08, 0.25, 0.65, 1.0)
+    links.new(coords.outputs["UV"], checker.inputs["Vector"])
+    links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
+    return mat
+
+
+def render(ob, path, elevation: float = 0.6, samples: int = 16, size=(480, 360)) -> None:
+    """A checker-textured Cycles render (CPU) of ``ob``, framed from above at an angle."""
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = samples
+    scene.cycles.use_denoising = False
+    scene.render.resolution_x, scene.render.resolution_y = size
+    ob.data.materials.clear()
+    ob.data.materials.append(checker_material())
+    lo = np.array([min(v[i] for v in ob.bound_box) for i in range(3)])
+    hi = np.array([max(v[i] for v in ob.bound_box) for i in range(3)])
+    centre, radius = (lo + hi) / 2, float(np.linalg.norm(hi - lo)) / 2
+    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    scene.collection.objects.link(cam)
+    cam.location = centre + radius * np.array([1.3, -1.6, 2.2 * elevation + 0.4])
+    target = bpy.data.objects.new("target", None)
+    scene.collection.objects.link(target)
+    target.location = centre
+    track = cam.constraints.new("TRACK_TO")
+    track.target = target
+    scene.camera = cam
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+    sun.data.energy = 3.0
+    sun.rotation_euler = (0.6, 0.2, 0.8)
+    scene.collection.objects.link(sun)
+    if scene.world is None:
+        scene.world = bpy.data.worlds.new("world")
+    scene.world.color = (0.35, 0.35, 0.38)
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
