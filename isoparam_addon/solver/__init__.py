@@ -24,6 +24,7 @@ from .errors import InvalidMeshError, IsoparamError, SolverError
 from .local import local_flattening
 from .mesh import Topology, build_topology
 from .pins import fit_to_pins, pin_targets, refine_to_pins, similarity
+from .refine import quadratic_proxy
 from .refine import refine as _refine
 from .weights import reconstruction_weights
 
@@ -213,7 +214,16 @@ class _Deferred:
         self.fn, self.args = fn, args
 
     def result(self):
-        return self.fn(*self.args)
+        if self.fn is not None:  # run once, on first demand
+            self.value, self.fn, self.args = self.fn(*self.args), None, None
+        return self.value
+
+
+def _proxy(X, faces, islands, pinned, plan):
+    """The refinement's factored proxy, in the plan's elimination order (``plan`` is a
+    future of the same one-worker pool, so it has finished when this task starts)."""
+    plan = plan.result()
+    return quadratic_proxy(X, faces, islands, pinned, np.concatenate([plan.free_order, plan.pins.ravel()]))
 
 
 def _is_large(vertices) -> bool:
@@ -232,35 +242,41 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
     islands = Islands(topo.vertex_island, topo.n_islands)
     he = topo.he
     fan = topo.fans
+    pinned = target = None
+    if pins is not None:
+        pinned, target = pin_targets(topo, pins, len(X))
+        count = np.bincount(islands.label, pinned, minlength=islands.n)
+        shaping = pinned & (count >= 3)[islands.label]  # one or two pins do not shape an island
     t1 = time.perf_counter()
-    # the elimination plan needs no weights: on large meshes it runs beside Steps 1-2
+    # the elimination plan needs no weights: on large meshes it runs beside Steps 1-2, and
+    # the refinement's factored proxy (it needs the plan's order) beside Step 3
     with ThreadPoolExecutor(max_workers=1) if len(X) > _THREAD_FROM else _Inline() as pool:
         plan = pool.submit(plan_elimination, X, he.edge_vertices, islands)
+        if refine:
+            proxy = pool.submit(_proxy, X, faces_i, islands, shaping if pins is not None else None, plan)
         patches = local_flattening(X, faces_i, fan)
         t2 = time.perf_counter()
         L, wstats = reconstruction_weights(X, faces_i, he.twin, patches, len(X))
         t3 = time.perf_counter()
         plan = plan.result()
-    emb = spectral_embedding(L, X, islands, tol=tol, max_iter=max_iter, plan=plan)
-    t4 = time.perf_counter()
+        emb = spectral_embedding(L, X, islands, tol=tol, max_iter=max_iter, plan=plan)
+        t4 = time.perf_counter()
+        proxy = proxy.result() if refine else None
+    t_wait = time.perf_counter()  # past t4 only if the proxy outlasted Step 3
     edges = he.edge_vertices
     length = np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
     Y, _, clipped = fit_rotation_scale(emb.coords, edges, length, islands.label[edges[:, 0]], islands)
     Y, flipped = orient(Y, faces_i, topo.face_island, islands)
     t5 = time.perf_counter()
     held = np.zeros(topo.n_islands, dtype=bool)
-    pinned = None
     order = np.concatenate([plan.free_order, plan.pins.ravel()])
     run = lambda seed, fixed: _refine(  # noqa: E731
-        X, faces_i, seed, islands, he.twin, iterations=refine, pinned=fixed, order=order
+        X, faces_i, seed, islands, he.twin, iterations=refine, pinned=fixed, order=order, proxy=proxy
     )
     info, reached = None, True
     if pins is not None:
         # refine in the layout's own frame (mesh units, what the energy measures) with the
         # pins mapped into it, then move each island onto its pins
-        pinned, target = pin_targets(topo, pins, len(X))
-        count = np.bincount(islands.label, pinned, minlength=islands.n)
-        shaping = pinned & (count >= 3)[islands.label]  # one or two pins do not shape an island
         fit = fit_to_pins(Y, pinned, target, islands)
         held = fit[3]
         if refine:
@@ -286,7 +302,8 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
     np.minimum.at(first, topo.vertex_of, np.arange(len(uv_split)))
     used = first < len(uv_split)
     uv[used] = uv_split[first[used]]
-    t.update(topology=t1 - t0, local=t2 - t1, weights=t3 - t2, embedding=t4 - t3, align=t5 - t4, refine=t6 - t5)
+    t.update(topology=t1 - t0, local=t2 - t1, weights=t3 - t2, embedding=t4 - t3, align=t5 - t_wait)
+    t["refine"] = t6 - t5 + (t_wait - t4)
     t.update({f"embedding.{k}": v for k, v in emb.timings.items()})
     t["total"] = time.perf_counter() - t0
     stats = dict(wstats, iterations=emb.iterations, vertices=len(V), faces=len(F), split_vertices=len(X))
