@@ -7,6 +7,7 @@ the whole range.
 
     python scripts/benchmark.py                     # peaks grids, 1k .. 1M
     python scripts/benchmark.py --sizes 1e3 1e5 --repeat 7 --mesh s_random
+    python scripts/benchmark.py --refine 100        # with the add-on's default refinement
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ STEPS = [
     ("embedding.pinned_basis", "step 3: pinned basis"),
     ("embedding.iterations", "step 3: iterations"),
     ("align", "step 4 + placement"),
+    ("refine", "refinement"),
     ("total", "total"),
 ]
 
@@ -54,16 +56,16 @@ def make_mesh(kind: str, n_target: int):
     raise ValueError(kind)
 
 
-def run_one(kind: str, n_target: int, repeat: int) -> dict:
+def run_one(kind: str, n_target: int, repeat: int, refine: int = 0) -> dict:
     """Measure one size in this process and return a JSON-able dict."""
     from isoparam_addon.solver import metrics, parametrize
 
     V, F = make_mesh(kind, n_target)
-    parametrize(V, F)  # warm-up: imports, page faults of a fresh process
+    parametrize(V, F, refine=refine)  # warm-up: imports, page faults of a fresh process
     rows = []
     for _ in range(repeat):
         t = time.perf_counter()
-        r = parametrize(V, F)
+        r = parametrize(V, F, refine=refine)
         wall = time.perf_counter() - t
         rows.append(dict(r.timings, wall=wall))
     med = {k: float(np.median([row.get(k, 0.0) for row in rows])) for k in rows[0]}
@@ -75,6 +77,7 @@ def run_one(kind: str, n_target: int, repeat: int) -> dict:
         "repeat": repeat,
         "median": med,
         "iterations": r.stats["iterations"],
+        "refine_iterations": r.stats.get("refine_iterations", 0),
         "edge_rms": edge,
         "flipped": int(r.flipped.sum()),
         "peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
@@ -87,16 +90,17 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", nargs="+", type=float, default=[1e3, 1e4, 1e5, 1e6])
     ap.add_argument("--repeat", type=int, default=5, help="timed runs per size (1M uses min(repeat, 3))")
     ap.add_argument("--out", default="out/benchmark", help="folder for the markdown table and JSON")
-    ap.add_argument("--child", nargs=3, help=argparse.SUPPRESS)
+    ap.add_argument("--refine", type=int, default=0, help="refinement iterations (0: the paper's method)")
+    ap.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
-        kind, n, rep = args.child
-        print(json.dumps(run_one(kind, int(float(n)), int(rep))))
+        kind, n, rep, refine = args.child
+        print(json.dumps(run_one(kind, int(float(n)), int(rep), int(refine))))
         return 0
     results = []
     for n in args.sizes:
         rep = args.repeat if n < 5e5 else min(args.repeat, 3)
-        cmd = [sys.executable, __file__, "--child", args.mesh, str(int(n)), str(rep)]
+        cmd = [sys.executable, __file__, "--child", args.mesh, str(int(n)), str(rep), str(args.refine)]
         out = subprocess.run(cmd, capture_output=True, text=True, check=True)
         res = json.loads(out.stdout.strip().splitlines()[-1])
         results.append(res)
@@ -108,9 +112,13 @@ def main(argv=None) -> int:
     header = "| step (median s) | " + " | ".join(f"{r['vertices']:,}" for r in results) + " |"
     lines = [header, "|---|" + "---|" * len(results)]
     for key, label in STEPS:
+        if key == "refine" and not args.refine:
+            continue
         lines.append(f"| {label} | " + " | ".join(f"{r['median'].get(key, 0.0):.3f}" for r in results) + " |")
     lines.append("| runs | " + " | ".join(str(r["repeat"]) for r in results) + " |")
     lines.append("| step-3 iterations | " + " | ".join(str(r["iterations"]) for r in results) + " |")
+    if args.refine:
+        lines.append("| refinement iterations | " + " | ".join(str(r["refine_iterations"]) for r in results) + " |")
     lines.append("| peak RSS (GiB) | " + " | ".join(f"{r['peak_rss_gib']:.2f}" for r in results) + " |")
     lines.append("| relative RMS edge error | " + " | ".join(f"{r['edge_rms']:.2e}" for r in results) + " |")
     lines.append("| flipped triangles | " + " | ".join(str(r["flipped"]) for r in results) + " |")
@@ -126,11 +134,13 @@ def main(argv=None) -> int:
             + f" between consecutive sizes; {overall:.2f} fitted over all"
         )
     table = "\n".join(lines) + ("\n\n" + growth if growth else "")
-    print(f"mesh: {args.mesh}\n\n{table}")
+    stem = args.mesh + (f"_refine{args.refine}" if args.refine else "")
+    title = f"mesh: {args.mesh}" + (f", refine={args.refine}" if args.refine else "")
+    print(f"{title}\n\n{table}")
     out = ROOT / args.out
     out.mkdir(parents=True, exist_ok=True)
-    (out / f"{args.mesh}.md").write_text(f"mesh: {args.mesh}\n\n{table}\n")
-    (out / f"{args.mesh}.json").write_text(json.dumps(results, indent=1))
+    (out / f"{stem}.md").write_text(f"{title}\n\n{table}\n")
+    (out / f"{stem}.json").write_text(json.dumps(results, indent=1))
     return 0
 
 

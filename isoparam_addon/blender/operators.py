@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, FloatProperty, IntProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from . import unwrap
 
@@ -22,6 +22,16 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         description="Pack the islands into the UV square afterwards; off keeps every island "
         "where its old UVs were (unwrap in place)",
         default=True,
+    )
+    pack_shape: EnumProperty(
+        name="Pack Shape",
+        description="Island shape the packer fits together",
+        items=(
+            ("AABB", "Bounding Box", "Fast, as Unwrap packs (Suzanne's 112 islands: 0.02 s)"),
+            ("CONVEX", "Convex Hull", "Tighter, slower"),
+            ("CONCAVE", "Exact Shape", "Tightest, slowest (Suzanne's 112 islands: 2.2 s)"),
+        ),
+        default="AABB",
     )
     margin: FloatProperty(
         name="Margin", description="Space between packed islands", default=0.001, min=0.0, max=1.0, precision=3
@@ -60,6 +70,7 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
     def execute(self, context):
         opts = unwrap.Options(
             pack=self.pack,
+            pack_shape=self.pack_shape,
             margin=self.margin,
             correct_aspect=self.correct_aspect,
             world_scale=self.world_scale,

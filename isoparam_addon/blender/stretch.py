@@ -17,8 +17,8 @@ __all__ = ["face_distortion", "colours", "summary", "ATTRIBUTE"]
 ATTRIBUTE = "isoparam_stretch"
 
 
-def face_distortion(V, F, corner_uv) -> np.ndarray:
-    """(t,) distortion of every triangle (inf for a collapsed UV triangle)."""
+def _distortion(V, F, corner_uv):
+    """(distortion (t,), 3D area (t,), measurable (t,) bool): one singular-value pass."""
     sig, area, ok = metrics.singular_values(V, F, corner_uv)
     q1, q2 = corner_uv[:, 1] - corner_uv[:, 0], corner_uv[:, 2] - corner_uv[:, 0]
     a2 = 0.5 * np.abs(q1[:, 0] * q2[:, 1] - q1[:, 1] * q2[:, 0]).sum()
@@ -26,7 +26,12 @@ def face_distortion(V, F, corner_uv) -> np.ndarray:
     sig = sig * k
     with np.errstate(divide="ignore"):
         d = np.maximum(sig[:, 0], np.where(sig[:, 1] > 0, 1.0 / sig[:, 1], np.inf))
-    return np.where(ok, d, 1.0)
+    return np.where(ok, d, 1.0), area, ok
+
+
+def face_distortion(V, F, corner_uv) -> np.ndarray:
+    """(t,) distortion of every triangle (inf for a collapsed UV triangle)."""
+    return _distortion(V, F, corner_uv)[0]
 
 
 def colours(distortion: np.ndarray) -> np.ndarray:
@@ -40,8 +45,7 @@ def colours(distortion: np.ndarray) -> np.ndarray:
 
 def summary(V, F, corner_uv):
     """(worst, area-weighted mean) distortion of a layout."""
-    d = face_distortion(V, F, corner_uv)
-    _, area, ok = metrics.singular_values(V, F, corner_uv)
+    d, area, ok = _distortion(V, F, corner_uv)
     w = area * ok
     finite = np.isfinite(d)
     mean = float((d[finite] * w[finite]).sum() / max(w[finite].sum(), 1e-300))

@@ -21,6 +21,7 @@ __all__ = ["Options", "run"]
 @dataclass
 class Options:
     pack: bool = True
+    pack_shape: str = "AABB"
     margin: float = 0.001
     correct_aspect: bool = True
     world_scale: bool = False
@@ -123,7 +124,7 @@ def run(op, context, opts: Options) -> set:
                 scale=not opts.world_scale,
                 pin=held,
                 pin_method="LOCKED",
-                shape_method="CONCAVE",
+                shape_method=opts.pack_shape,
             )
         finally:
             tool.use_uv_select_sync = sync_was

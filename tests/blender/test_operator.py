@@ -124,6 +124,23 @@ def test_two_seams_make_two_islands(scene):
     assert metrics.edge_rms(Vb, Fb, cuv) < 1e-5
 
 
+@pytest.mark.parametrize("shape", ["AABB", "CONVEX", "CONCAVE"])
+def test_pack_shapes(scene, shape):
+    V, faces = tube()
+    ob = add_mesh("tube", V, faces)
+    mark_seams(ob, [(j, j + 1) for j in range(5)] + [(12 * 6 + j, 12 * 6 + j + 1) for j in range(5)])
+    edit(ob)
+    assert unwrap(pack_shape=shape) == {"FINISHED"}
+    object_mode()
+    Vb, Fb, cuv = triangle_uvs(ob)
+    label = metrics.uv_islands(Fb, cuv)
+    assert len(np.unique(label)) == 2 and cuv.min() >= 0 and cuv.max() <= 1
+    assert metrics.edge_rms(Vb, Fb, cuv) < 1e-5
+    if shape == "AABB":  # bounding boxes side by side
+        a, b = (cuv[label == k].reshape(-1, 2) for k in np.unique(label))
+        assert (a.max(0) <= b.min(0) + 1e-6).any() or (b.max(0) <= a.min(0) + 1e-6).any()
+
+
 def test_quads_and_ngons_get_one_uv_per_corner(scene):
     # a quad grid with an octagon n-gon in its middle replaced
     n = 6
