@@ -93,3 +93,24 @@ def test_large_developable_mesh_stays_exact():
     assert len(V) > 140_000
     assert edge_length_error(V, F, r.uv) < 1e-8
     assert procrustes_error(U, r.uv) < 1e-8
+
+
+@pytest.mark.parametrize("trans", ["N", "T"])
+def test_column_parallel_solves_match_one_solve(trans):
+    # large enough to go through the helper thread; unsymmetric so that trans matters
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import splu
+
+    from isoparam_addon.solver import _parallel
+
+    n = _parallel.PARALLEL_FROM + 17
+    rng = np.random.default_rng(5)
+    A = sp.diags([4.0 + rng.random(n), -1.0 - rng.random(n - 1), -rng.random(n - 3)], [0, 1, -3], format="csc")
+    lu = splu(A)
+    b = rng.standard_normal((n, 5))
+    x = _parallel.solve_columns(lu, b, trans=trans)
+    y = lu.solve(b, trans=trans)
+    assert np.abs(x - y).max() <= 1e-12 * np.abs(y).max()
+    assert np.array_equal(x, _parallel.solve_columns(lu, b, trans=trans))  # deterministic
+    At = A.T if trans == "T" else A
+    assert np.abs(At @ x - b).max() < 1e-12

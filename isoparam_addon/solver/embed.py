@@ -48,6 +48,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
+from ._parallel import solve_columns
 from .blocks import Islands
 from .ordering import nested_dissection
 
@@ -198,7 +199,7 @@ class _PinnedLeastSquares:
         self.timings = {"ordering": plan.seconds, "factorization": t2 - t1}
         e3 = np.zeros((n, 3))
         e3[nf + np.arange(3 * nI), np.tile(np.arange(3), nI)] = 1.0  # B columns, k-th of each island
-        self.Tz = self.lu.solve(e3, trans="T")  # A^{-T} E_B
+        self.Tz = solve_columns(self.lu, e3, trans="T")  # A^{-T} E_B
         # the pinned least-squares basis: h_k = argmin ||L x|| with x = e_k on the pins.
         # Its free part is -M_FF^{-1} L_F^T r_k with r_k = L[:, P] e_k, and since
         # [L_F^T r; 0] = A^T r - [0; B^T r], the first solve is r - A^{-T} E_B (B^T r).
@@ -206,7 +207,7 @@ class _PinnedLeastSquares:
         H[pins, np.arange(3)] = 1.0
         r = self.L @ H  # L[:, P] e_k for every island at once, (n, 3)
         rhs = self._to_rows(r) - self._per_island(self.Tz, islands.gram(self.B, r))
-        both = self.lu.solve(np.hstack([self.Tz, rhs]))  # one call for S E_B and the basis
+        both = solve_columns(self.lu, np.hstack([self.Tz, rhs]))  # one call for S E_B and the basis
         self.Z = both[:, :3]  # S E_B
         self.Zbb = self.Z[nf:].reshape(nI, 3, 3)  # S_BB per island
         self.H = H - self._from_rows(self._finish(both[:, 3:]))
@@ -239,7 +240,7 @@ class _PinnedLeastSquares:
         """``[M_FF^{-1} b_F; 0]`` for b (n, p), vertex order."""
         rhs = self._to_rows(b)
         rhs[self.nf :] = 0.0
-        return self._from_rows(self._finish(self.lu.solve(self.lu.solve(rhs, trans="T"))))
+        return self._from_rows(self._finish(solve_columns(self.lu, solve_columns(self.lu, rhs, trans="T"))))
 
 
 _REMAINDER = 1e-8  # smallest kept part of a column outside the previous blocks (relative)

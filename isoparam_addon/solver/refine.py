@@ -42,6 +42,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
+from ._parallel import solve_columns
 from .blocks import Islands
 from .seeds import lscm, signed_double_areas, tutte
 
@@ -354,7 +355,7 @@ def refine(
     def precondition(g):  # H^{-1} g; H is block diagonal, so islands stay independent
         p = np.zeros_like(g)
         if lu is not None:
-            p[perm] = lu.solve(np.ascontiguousarray(g[perm]))
+            p[perm] = solve_columns(lu, g[perm])
         return p
 
     J = frames.jacobians(x)
