@@ -8,11 +8,13 @@ from white (1) through yellow to red (2 and more), on a log scale.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..solver import metrics
 
-__all__ = ["face_distortion", "colours", "summary", "ATTRIBUTE"]
+__all__ = ["ATTRIBUTE", "Summary", "colours", "combine", "face_distortion", "summary"]
 
 ATTRIBUTE = "isoparam_stretch"
 
@@ -43,10 +45,23 @@ def colours(distortion: np.ndarray) -> np.ndarray:
     return rgba
 
 
-def summary(V, F, corner_uv):
-    """(worst, area-weighted mean) distortion of a layout."""
+class Summary(NamedTuple):
+    worst: float
+    mean: float  # weighted by 3D area
+    area: float  # the 3D area the mean is over (to combine meshes)
+
+
+def summary(V, F, corner_uv) -> Summary:
+    """Worst and area-weighted mean distortion of a layout."""
     d, area, ok = _distortion(V, F, corner_uv)
     w = area * ok
     finite = np.isfinite(d)
-    mean = float((d[finite] * w[finite]).sum() / max(w[finite].sum(), 1e-300))
-    return float(d.max()), mean
+    total = float(w[finite].sum())
+    return Summary(float(d.max()), float((d[finite] * w[finite]).sum() / max(total, 1e-300)), total)
+
+
+def combine(parts: list) -> Summary:
+    """One summary for several meshes."""
+    area = sum(p.area for p in parts)
+    mean = sum(p.mean * p.area for p in parts) / area if area > 0 else float(np.mean([p.mean for p in parts]))
+    return Summary(max(p.worst for p in parts), mean, area)

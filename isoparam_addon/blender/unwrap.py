@@ -81,7 +81,7 @@ class _Solved:
     corner_uv: np.ndarray
     held: np.ndarray
     n_islands: int
-    stretch: tuple
+    stretch: stretch.Summary
     warnings: list
 
 
@@ -197,20 +197,7 @@ def _write_stretch(s: _Solved) -> None:
 
 def _report(op, solved, seconds: float) -> None:
     islands = sum(s.n_islands for s in solved)
-    worst = max(s.stretch[0] for s in solved)
-    weights = np.array(
-        [
-            float(
-                np.abs(
-                    np.cross(
-                        s.sel.V[s.sel.F[:, 1]] - s.sel.V[s.sel.F[:, 0]], s.sel.V[s.sel.F[:, 2]] - s.sel.V[s.sel.F[:, 0]]
-                    )
-                ).sum()
-            )
-            for s in solved
-        ]
-    )  # one area per mesh
-    mean = float(np.average([s.stretch[1] for s in solved], weights=np.maximum(weights, 1e-300)))
+    worst, mean, _ = stretch.combine([s.stretch for s in solved])
     where = f" on {len(solved)} meshes" if len(solved) > 1 else ""
     op.report(
         {"INFO"},
@@ -225,7 +212,7 @@ def show_stretch(op, context) -> set:
     """Colour every face of the meshes in edit mode by the distortion of the active UV map."""
     objects = [ob for ob in context.objects_in_mode_unique_data if ob.type == "MESH"]
     bpy.ops.object.mode_set(mode="OBJECT")
-    worst, means, done = 1.0, [], 0
+    parts = []
     try:
         for ob in objects:  # one mesh at a time
             me = ob.data
@@ -238,18 +225,16 @@ def show_stretch(op, context) -> set:
             per_face = np.zeros(len(faces))
             np.maximum.at(per_face, inverse, d)
             mesh_io.write_face_colours(me, stretch.ATTRIBUTE, stretch.colours(per_face), faces)
-            w, m = stretch.summary(sel.V, sel.F, cuv)
-            worst = max(worst, w)
-            means.append(m)
-            done += 1
+            parts.append(stretch.summary(sel.V, sel.F, cuv))
     finally:
         bpy.ops.object.mode_set(mode="EDIT")
-    if not done:
+    if not parts:
         op.report({"ERROR"}, "Show Stretch: no mesh in edit mode has a UV map")
         return {"CANCELLED"}
+    worst, mean, _ = stretch.combine(parts)
     op.report(
         {"INFO"},
-        f"Show Stretch: worst {worst:.2f}, mean {np.mean(means):.3f} "
+        f"Show Stretch: worst {worst:.2f}, mean {mean:.3f} "
         f"(colour attribute '{stretch.ATTRIBUTE}': white 1, red 2 or more)",
     )
     return {"FINISHED"}
