@@ -60,3 +60,25 @@ def test_coincident_points_still_give_a_permutation(fraction):
     order = ordering.nested_dissection(V, E)
     assert np.array_equal(np.sort(order), np.arange(len(V)))
     assert _fill(A, order) < 0.5 * len(V) ** 2  # still sparse: the halves are real domains
+
+
+def test_order_does_not_depend_on_scale_even_near_overflow():
+    V, F = ex.peaks(40)
+    E, _ = _pattern(len(V), F)
+    order = ordering.nested_dissection(V, E)
+    for scale in (2.0**531, 2.0**-660):  # ~1e160 and ~1e-199: exact in binary, squares would overflow/underflow
+        assert np.array_equal(ordering.nested_dissection(V * scale, E), order)
+
+
+def test_many_small_islands_beside_a_large_one():
+    rng = np.random.default_rng(7)
+    Vs, Fs = [ex.peaks(60)[0]], [ex.peaks(60)[1]]
+    for _ in range(300):  # small separate grids scattered around the large one
+        v, f = ex.peaks(4)
+        Vs.append(0.05 * v + rng.uniform(-20, 20, 3))
+        Fs.append(f + sum(len(x) for x in Vs[:-1]))
+    V, F = np.concatenate(Vs), np.concatenate(Fs)
+    E, A = _pattern(len(V), F)
+    order = ordering.nested_dissection(V, E)
+    assert np.array_equal(np.sort(order), np.arange(len(V)))
+    assert _fill(A, order) < 0.9 * _fill(A)

@@ -10,10 +10,11 @@ separate.
 
 Which plane: a curved surface can cross a plane several times (a C-shaped strip cut
 across its mouth leaves two separators where one cut across the strip would do), so
-every domain larger than ``_COMPARE_ABOVE`` tries the planes normal to the three
-coordinate axes and to its principal axis of largest variance, and keeps the one that
-cuts the fewest edges for its balance (cut / smaller share). Smaller domains take the
-axis of largest variance. Against the axis of largest variance alone (nnz of the LU of
+on every level with a domain larger than ``_COMPARE_ABOVE`` each domain tries the planes
+normal to the three coordinate axes and to its principal axis of largest variance, and
+keeps the one that cuts the fewest edges for its balance ((cut + 1) / smaller share, a
+share of at least ``_BALANCE`` unless it is the widest axis). Deeper levels take the axis
+of largest variance. Against the axis of largest variance alone (nnz of the LU of
 the Step-3 matrix at 100k vertices): peaks 9.59M -> 9.02M, random S-surface 9.64M ->
 8.72M, a 3/4-cylinder strip 12.2M -> 9.60M; at 1M vertices that strip factors in
 26 s instead of 34 s. Medians instead of centroids gave 1-8% more fill.
@@ -29,7 +30,8 @@ import numpy as np
 
 __all__ = ["nested_dissection"]
 
-_COMPARE_ABOVE = 256  # domains larger than this choose the best of four planes (fill: 1024 +2%, 4096 +4%)
+_COMPARE_ABOVE = 256  # levels with a domain larger than this compare four planes (fill: 1024 +2%, 4096 +4%)
+_BALANCE = 0.25  # smallest share of a domain on either side of a plane other than the widest axis
 
 
 def _postorder(level: np.ndarray, node: np.ndarray, depth: int) -> np.ndarray:
@@ -50,21 +52,27 @@ def _planes(q: tuple, d: np.ndarray, n_dom: int, cnt: np.ndarray, compare: bool)
     """Signed distances of the vertices to candidate cutting planes through their domain's
     centroid (``q``: coordinates relative to it, three columns). ``compare``: the planes
     normal to the three axes and to the principal axis of largest variance; otherwise
-    only the one normal to the axis of largest variance."""
+    only the one normal to the axis of largest variance. Also returns, per domain, which
+    candidate that last one is."""
     var = np.stack([np.bincount(d, c * c, minlength=n_dom) for c in q])
+    widest = np.argmax(var, axis=0)
     if not compare:
-        return [np.choose(np.argmax(var, axis=0)[d], q)]
+        return [np.choose(widest[d], q)], np.zeros(n_dom, dtype=np.int64)
     cov = np.empty((n_dom, 3, 3))
     for i in range(3):
         cov[:, i, i] = var[i]
         for j in range(i + 1, 3):
             cov[:, i, j] = cov[:, j, i] = np.bincount(d, q[i] * q[j], minlength=n_dom)
     axis = np.linalg.eigh(cov / cnt[:, None, None])[1][:, :, 2]
-    return [*q, sum(c * axis[d, i] for i, c in enumerate(q))]
+    return [*q, sum(c * axis[d, i] for i, c in enumerate(q))], widest
 
 
-def _best_cut(bits: np.ndarray, k: int, dom, act, ea, eb, size):
+def _best_cut(bits: np.ndarray, k: int, widest, dom, act, ea, eb, size):
     """Per domain, the candidate plane that cuts the fewest edges relative to its balance.
+
+    A plane that leaves less than ``_BALANCE`` of the domain on one side only counts if it
+    is the one across the axis of largest variance (candidate ``widest``), so the tree is
+    never less balanced than with that plane alone.
 
     ``bits`` (n,) holds, per vertex, which side of each of the ``k`` candidate planes it is
     on (bit j for plane j), so all candidates are counted with one gather and one
@@ -81,8 +89,9 @@ def _best_cut(bits: np.ndarray, k: int, dom, act, ea, eb, size):
     else:  # the edge cut stands in for the separator size
         cut = np.bincount(dom[ea] * (1 << k) + (bits[ea] ^ bits[eb]), minlength=n_dom << k)
         cut = cut.reshape(n_dom, -1) @ has
-        ok = balance > 0  # a plane with everything on one side does not cut
-        best = np.argmin(np.where(ok, cut / np.where(ok, balance, 1.0), np.inf), axis=1).astype(np.uint8)
+        ok = (balance >= _BALANCE) | (np.arange(k) == widest[:, None])
+        ok &= balance > 0  # a plane with everything on one side does not cut
+        best = np.argmin(np.where(ok, (cut + 1) / np.where(ok, balance, 1.0), np.inf), axis=1).astype(np.uint8)
     side = ((bits >> best[dom]) & 1).astype(bool)
     flat = balance[np.arange(n_dom), best] == 0  # every candidate left one side empty
     if flat[d].any():  # coincident points: halve the domain by index instead
@@ -126,7 +135,12 @@ def nested_dissection(points: np.ndarray, edges: np.ndarray, leaf: int = 32) -> 
     level_of = np.full(n, -1, dtype=np.int64)
     node_of = np.zeros(n, dtype=np.int64)
     active = np.ones(n, dtype=bool)
-    xyz = [np.ascontiguousarray(points[:, c], dtype=np.float64) for c in range(3)]  # 1-D gathers
+    P = np.asarray(points, dtype=np.float64)
+    P = P - P.mean(axis=0)
+    scale = np.abs(P).max()
+    if np.isfinite(scale) and scale > 0:  # the planes do not depend on scale; squares must not overflow
+        P /= scale
+    xyz = [np.ascontiguousarray(P[:, c]) for c in range(3)]  # 1-D gathers
     e = np.asarray(edges)
     e = e[e[:, 0] != e[:, 1]]
     ea, eb = e[:, 0].astype(np.int32), e[:, 1].astype(np.int32)  # edges inside live, split domains
@@ -145,13 +159,13 @@ def nested_dissection(points: np.ndarray, edges: np.ndarray, leaf: int = 32) -> 
         for c in xyz:
             c = c[act]
             q.append(c - (np.bincount(d, c, minlength=n_dom) / cnt)[d])
-        planes = _planes(tuple(q), d, n_dom, cnt, compare=size.max() > _COMPARE_ABOVE)
+        planes, widest = _planes(tuple(q), d, n_dom, cnt, compare=size.max() > _COMPARE_ABOVE)
         packed = np.zeros(len(act), dtype=np.uint8)
         for j, c in enumerate(planes):
             packed |= (c > 0.0).view(np.uint8) << j
         bits[:] = 0
         bits[act] = packed
-        side, sep, cross = _best_cut(bits, len(planes), dom, act, ea, eb, size)
+        side, sep, cross = _best_cut(bits, len(planes), widest, dom, act, ea, eb, size)
         level_of[sep] = depth
         node_of[sep] = dom[sep]
         active &= ~sep
