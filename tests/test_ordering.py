@@ -82,3 +82,10 @@ def test_many_small_islands_beside_a_large_one():
     order = ordering.nested_dissection(V, E)
     assert np.array_equal(np.sort(order), np.arange(len(V)))
     assert _fill(A, order) < 0.9 * _fill(A)
+
+
+def test_leaf_must_be_positive():
+    V, F = ex.peaks(10)
+    E, _ = _pattern(len(V), F)
+    with pytest.raises(ValueError, match="leaf"):
+        ordering.nested_dissection(V, E, leaf=0)

@@ -121,13 +121,15 @@ def nested_dissection(points: np.ndarray, edges: np.ndarray, leaf: int = 32) -> 
     edges : (e, 2) int
         The symmetric sparsity pattern, each undirected pair once (either direction).
     leaf : int
-        Domains at most this large are not split further.
+        Domains at most this large (at least 1) are not split further.
 
     Returns
     -------
     (n,) int64
         The elimination order: ``order[k]`` is the vertex eliminated k-th.
     """
+    if leaf < 1:
+        raise ValueError(f"leaf must be at least 1, got {leaf}")  # a one-vertex domain cannot be halved
     n = len(points)
     if n <= leaf:
         return np.arange(n)
