@@ -111,8 +111,8 @@ def main(argv=None) -> int:
         fig, axes = plt.subplots(1, len(ORDER), figsize=(4.4 * len(ORDER), 4.4))
         for ax, method in zip(axes, ORDER):
             Ft, cuv, _, _ = layouts[method]
-            worst, mean, _ = stretch.summary(V, Ft, cuv)
-            rgba = stretch.colours(stretch.face_distortion(V, Ft, cuv))
+            d, (worst, mean, _) = stretch.measure(V, Ft, cuv)
+            rgba = stretch.colours(d)
             draw_stretch(ax, Ft, cuv, rgba, f"{method}\nstretch worst {worst:.2f}, mean {mean:.3f}")
         stretch_key(fig, axes[-1], stretch.colours)
         fig.suptitle(f"{title}: stretch per face in UV space")

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..solver import metrics
 
-__all__ = ["ATTRIBUTE", "Summary", "colours", "combine", "face_distortion", "summary"]
+__all__ = ["ATTRIBUTE", "Summary", "colours", "combine", "measure", "summary"]
 
 ATTRIBUTE = "isoparam_stretch"
 
@@ -29,11 +29,6 @@ def _distortion(V, F, corner_uv):
     with np.errstate(divide="ignore"):
         d = np.maximum(sig[:, 0], np.where(sig[:, 1] > 0, 1.0 / sig[:, 1], np.inf))
     return np.where(ok, d, 1.0), area, ok
-
-
-def face_distortion(V, F, corner_uv) -> np.ndarray:
-    """(t,) distortion of every triangle (inf for a collapsed UV triangle)."""
-    return _distortion(V, F, corner_uv)[0]
 
 
 def colours(distortion: np.ndarray) -> np.ndarray:
@@ -51,13 +46,19 @@ class Summary(NamedTuple):
     area: float  # the 3D area the mean is over (to combine meshes)
 
 
-def summary(V, F, corner_uv) -> Summary:
-    """Worst and area-weighted mean distortion of a layout."""
+def measure(V, F, corner_uv) -> tuple[np.ndarray, Summary]:
+    """Distortion of every triangle, (t,) (inf for a collapsed UV triangle), and its
+    summary, from one singular-value pass."""
     d, area, ok = _distortion(V, F, corner_uv)
     w = area * ok
     finite = np.isfinite(d)
     total = float(w[finite].sum())
-    return Summary(float(d.max()), float((d[finite] * w[finite]).sum() / max(total, 1e-300)), total)
+    return d, Summary(float(d.max()), float((d[finite] * w[finite]).sum() / max(total, 1e-300)), total)
+
+
+def summary(V, F, corner_uv) -> Summary:
+    """Worst and area-weighted mean distortion of a layout."""
+    return measure(V, F, corner_uv)[1]
 
 
 def combine(parts: list) -> Summary:

@@ -81,6 +81,7 @@ class _Solved:
     corner_uv: np.ndarray
     held: np.ndarray
     n_islands: int
+    distortion: np.ndarray  # (t,) per unwrapped triangle
     stretch: stretch.Summary
     warnings: list
 
@@ -103,7 +104,7 @@ def run(op, context, opts: Options) -> set:
         for s in solved:  # one write per mesh
             _write(s)
             if opts.show_stretch:
-                _write_stretch(s)
+                _write_stretch(s.obj.data, s.sel, s.distortion)
         wm.progress_update(2 * len(objects) + 1)
     finally:
         bpy.ops.object.mode_set(mode="EDIT")
@@ -173,7 +174,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             aspect=aspect,
             margin=opts.margin if opts.pack else 0.0,
         )
-        solved.append(_Solved(ob, sel, uv, held, res.n_islands, stretch.summary(sel.V, sel.F, uv), res.warnings))
+        solved.append(_Solved(ob, sel, uv, held, res.n_islands, *stretch.measure(sel.V, sel.F, uv), res.warnings))
     return solved
 
 
@@ -186,13 +187,13 @@ def _write(s: _Solved) -> None:
     mesh_io.write_uvs(me, name, uv)
 
 
-def _write_stretch(s: _Solved) -> None:
-    """Colour the unwrapped faces by distortion (object mode); a face shows its worst triangle."""
-    d = stretch.face_distortion(s.sel.V, s.sel.F, s.corner_uv)
-    faces, inverse = np.unique(s.sel.tri_poly, return_inverse=True)
+def _write_stretch(me, sel: mesh_io.Selection, distortion: np.ndarray) -> None:
+    """Colour the faces of ``sel`` by the distortion of their triangles, (t,) (object mode);
+    a face shows its worst triangle."""
+    faces, inverse = np.unique(sel.tri_poly, return_inverse=True)
     worst = np.zeros(len(faces))
-    np.maximum.at(worst, inverse, d)
-    mesh_io.write_face_colours(s.obj.data, stretch.ATTRIBUTE, stretch.colours(worst), faces)
+    np.maximum.at(worst, inverse, distortion)
+    mesh_io.write_face_colours(me, stretch.ATTRIBUTE, stretch.colours(worst), faces)
 
 
 def _report(op, solved, seconds: float) -> None:
@@ -220,12 +221,9 @@ def show_stretch(op, context) -> set:
                 continue
             sel = mesh_io.read_selection(ob, world_space=False, uv_selection_locks=False, every_face=True)
             cuv = sel.uv[sel.tri_loops].astype(np.float64)
-            d = stretch.face_distortion(sel.V, sel.F, cuv)
-            faces, inverse = np.unique(sel.tri_poly, return_inverse=True)
-            per_face = np.zeros(len(faces))
-            np.maximum.at(per_face, inverse, d)
-            mesh_io.write_face_colours(me, stretch.ATTRIBUTE, stretch.colours(per_face), faces)
-            parts.append(stretch.summary(sel.V, sel.F, cuv))
+            d, part = stretch.measure(sel.V, sel.F, cuv)
+            _write_stretch(me, sel, d)
+            parts.append(part)
     finally:
         bpy.ops.object.mode_set(mode="EDIT")
     if not parts:

@@ -15,7 +15,7 @@ normal to the three coordinate axes and to its principal axis of largest varianc
 keeps the one that cuts the fewest edges for its balance ((cut + 1) / smaller share, a
 share of at least ``_BALANCE`` unless it is the widest axis). Deeper levels take the axis
 of largest variance. Against the axis of largest variance alone (nnz of the LU of
-the Step-3 matrix at 100k vertices): peaks 9.59M -> 9.02M, random S-surface 9.64M ->
+the Step-3 matrix at 100k vertices): peaks 9.59M -> 9.03M, random S-surface 9.64M ->
 8.72M, a 3/4-cylinder strip 12.2M -> 9.60M; at 1M vertices that strip factors in
 26 s instead of 34 s. Medians instead of centroids gave 1-8% more fill.
 
@@ -48,12 +48,15 @@ def _postorder(level: np.ndarray, node: np.ndarray, depth: int) -> np.ndarray:
     return node * size + before + size - 1
 
 
-def _planes(q: tuple, d: np.ndarray, n_dom: int, cnt: np.ndarray, compare: bool) -> list:
-    """Signed distances of the vertices to candidate cutting planes through their domain's
-    centroid (``q``: coordinates relative to it, three columns). ``compare``: the planes
+def _planes(q: tuple, d: np.ndarray, n_dom: int, cnt: np.ndarray, compare: bool) -> tuple[list, np.ndarray]:
+    """Signed distances of the vertices being split to candidate cutting planes through
+    their domain's centroid: a list of (a,) arrays, and per domain (n_dom,) which candidate
+    is the plane across the axis of largest variance.
+
+    ``q`` holds three (a,) columns, the coordinates relative to the centroid; ``d`` (a,)
+    the domain of each vertex; ``cnt`` (n_dom,) the domain sizes. ``compare``: the planes
     normal to the three axes and to the principal axis of largest variance; otherwise
-    only the one normal to the axis of largest variance. Also returns, per domain, which
-    candidate that last one is."""
+    only the one across the axis of largest variance."""
     var = np.stack([np.bincount(d, c * c, minlength=n_dom) for c in q])
     widest = np.argmax(var, axis=0)
     if not compare:
@@ -76,8 +79,11 @@ def _best_cut(bits: np.ndarray, k: int, widest, dom, act, ea, eb, size):
 
     ``bits`` (n,) holds, per vertex, which side of each of the ``k`` candidate planes it is
     on (bit j for plane j), so all candidates are counted with one gather and one
-    ``bincount``. Returns the chosen side of every vertex, the separator (the endpoints of
-    cut edges on whichever side has fewer of them) and which edges were cut.
+    ``bincount``. ``widest`` (n_dom,), ``dom`` (n,) the domain of every vertex, ``act``
+    (a,) the vertices being split, ``ea``/``eb`` (e,) the edges inside them, ``size``
+    (n_dom,) the number of vertices being split per domain. Returns the chosen side of
+    every vertex (n,), the separator (n,) (the endpoints of cut edges on whichever side
+    has fewer of them) and which edges were cut (e,).
     """
     n_dom = len(size)
     has = (np.arange(1 << k)[:, None] >> np.arange(k)) & 1  # (patterns, k): bit j set
