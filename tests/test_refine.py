@@ -166,3 +166,38 @@ def test_two_pins_fix_placement_rotation_and_scale_only():
         assert np.abs(r.corner_uv[F == v] - np.array(t)).max() < 1e-6
     # same shape, twice the size: edge lengths scale, relative error unchanged
     assert metrics.edge_rms(V, F, r.corner_uv) == pytest.approx(metrics.edge_rms(V, F, free.uv), rel=1e-6)
+
+
+@pytest.mark.parametrize("refine", [0, 100])
+@pytest.mark.parametrize("n_pins", [2, 3])
+def test_pins_all_on_one_uv_move_the_island_without_collapsing_it(refine, n_pins):
+    # stacked pins give no rotation and no scale: the island is shifted onto them, as
+    # with one pin, instead of being scaled to a point (refine > 0 used to give NaN)
+    V, F = ex.peaks(21)
+    free = parametrize(V, F, refine=refine)
+    targets = dict.fromkeys([0, 20, 440][:n_pins], (0.3, 0.3))
+    r = parametrize(V, F, refine=refine, pins=_pins(F, targets))
+    assert np.isfinite(r.corner_uv).all()
+    for v, t in targets.items():
+        assert np.abs(r.corner_uv[F == v] - np.array(t)).max() == 0.0  # pinned UVs never move
+
+    def mean_edge(uv):
+        return np.linalg.norm(uv[:, [1, 2, 0]] - uv, axis=2).mean()
+
+    assert mean_edge(r.corner_uv) == pytest.approx(mean_edge(free.corner_uv), rel=0.05)
+    assert any("all their pins on one UV" in w for w in r.warnings)
+
+
+def test_packed_islands_keep_clear_of_pinned_ones():
+    V1, F1 = ex.peaks(11)
+    V = np.vstack([V1, V1 + [20.0, 0.0, 0.0]])
+    F = np.vstack([F1, F1 + len(V1)])
+    free = parametrize(V, F)
+    # pin the first piece where packing puts the second one
+    targets = {0: tuple(free.uv[len(V1)]), 10: tuple(free.uv[len(V1) + 10])}
+    r = parametrize(V, F, pins=_pins(F, targets))
+    for v, t in targets.items():
+        assert np.abs(r.corner_uv[F == v] - np.array(t)).max() < 1e-12
+    a, b = r.uv[: len(V1)], r.uv[len(V1) :]
+    apart = (a.max(axis=0) < b.min(axis=0)) | (b.max(axis=0) < a.min(axis=0))
+    assert apart.any()  # the boxes are separated along u or v

@@ -18,7 +18,7 @@ def square():
 
 
 def raises(kind, V, F, match, **kw):
-    V0, F0 = np.array(V, copy=True), np.array(F, copy=True)
+    V0, F0 = (np.array(x, copy=True) if isinstance(x, np.ndarray) else None for x in (V, F))
     with pytest.raises(InvalidMeshError, match=match) as info:
         parametrize(V, F, **kw)
     assert info.value.kind == kind
@@ -41,6 +41,27 @@ def test_wrong_shapes_and_dtypes():
     raises("shape", V[:, :2], F, r"vertices must have shape \(n, 3\)")
     raises("shape", V, F[:, :2], r"faces must have shape \(m, 3\)")
     raises("shape", V, F + 0.5, "integer indices")
+
+
+def test_ragged_and_non_numeric_input():
+    V, F = square()
+    raises("shape", [[0, 0, 0], [1, 0], [1, 1, 0], [0, 1, 0]], F, "vertices must be an array of numbers")
+    raises("shape", V, [[0, 1, 2], [0, 2]], "faces must be an array of numbers")
+    raises("shape", [["a", "b", "c"]] * 4, F, "vertices must be an array of numbers")
+
+
+def test_bad_pins():
+    V, F = square()
+    mask, uv = np.zeros((2, 3), dtype=bool), np.zeros((2, 3, 2))
+    raises("shape", V, F, r"pins must be \(\(m, 3\) bool", pins=(mask[:1], uv))
+    raises("shape", V, F, r"pins must be .*with m = 2", pins=(mask, [[[0, 0]] * 3, [[0, 0]] * 2]))
+    raises("shape", V, F, r"pins must be", pins=mask)
+    mask[1, 2] = mask[0, 1] = True
+    uv[1, 2] = np.nan
+    uv[0, 0] = np.inf  # not pinned: ignored
+    message = r"1 face have pinned corners with non-finite UVs \(first: face 1\)"
+    err = raises("non_finite", V, F, message, pins=(mask, uv))
+    assert err.indices.tolist() == [1]
 
 
 def test_non_finite_coordinates_name_count_and_first():

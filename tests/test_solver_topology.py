@@ -76,6 +76,28 @@ def test_sphere_is_cut_and_reported():
     assert np.isfinite(r.corner_uv).all()
 
 
+def _tetrahedron():
+    V = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=float)
+    return V, np.array([[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]])
+
+
+def _bipyramid():
+    V = np.array([[1, 0, 0], [-0.5, 0.8, 0], [-0.5, -0.8, 0], [0, 0, 1], [0, 0, -1]])
+    return V, np.array([[0, 1, 3], [1, 2, 3], [2, 0, 3], [1, 0, 4], [2, 1, 4], [0, 2, 4]])
+
+
+def test_small_closed_meshes_whose_farthest_vertex_is_a_neighbour_are_cut():
+    # every vertex of a tetrahedron is adjacent to the root: the shortest path to the
+    # farthest vertex is one edge, and cutting one edge does not open a closed mesh
+    for V, F in (_tetrahedron(), _bipyramid(), (_tetrahedron()[0] * [1, 2, 3], _tetrahedron()[1])):
+        for refine in (0, 100):
+            r = parametrize(V, F, refine=refine)
+            assert len(r.cut_edges) == 2 and r.cut_islands.tolist() == [0]
+            assert np.isfinite(r.corner_uv).all()
+            if refine:
+                assert metrics.flipped(V, F, r.corner_uv) == 0
+
+
 def test_torus_is_cut_along_two_short_loops():
     V, F = ex.torus(40, 16)
     topo = build_topology(V, F)[2]

@@ -23,7 +23,7 @@ from .embed import plan_elimination, spectral_embedding
 from .errors import InvalidMeshError, IsoparamError, SolverError
 from .local import local_flattening
 from .mesh import Topology, build_topology, unit_of
-from .pins import fit_to_pins, pin_targets, refine_to_pins, similarity
+from .pins import fit_to_pins, pin_targets, pins_spread, refine_to_pins, similarity
 from .refine import quadratic_proxy
 from .refine import refine as _refine
 from .weights import reconstruction_weights
@@ -91,7 +91,7 @@ class Parametrization:
         return metrics.distortion(V, F, self.corner_uv, self.face_island)
 
 
-def _warnings(topo: Topology, emb, clipped, wstats, flipped, unused, info=None, reached=True) -> list[str]:
+def _warnings(topo: Topology, emb, clipped, wstats, flipped, unused, info=None, reached=True, one_point=None):
     out = []
     for name, isl in (
         ("closed", topo.closed_islands),
@@ -121,6 +121,11 @@ def _warnings(topo: Topology, emb, clipped, wstats, flipped, unused, info=None, 
             if k
         )
         out.append(f"the four-step layout folded on some islands; refinement restarted {seeds}")
+    if one_point is not None and one_point.any():
+        out.append(
+            f"{int(one_point.sum())} island(s) have all their pins on one UV (first: island "
+            f"{np.argmax(one_point)}): moved there, not scaled or shaped by them"
+        )
     if not reached:
         out.append("the pins could not all be reached without folding the layout")
     if flipped.any():
@@ -250,12 +255,14 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
     islands = Islands(topo.vertex_island, topo.n_islands)
     he = topo.he
     fan = topo.fans
-    pinned = target = None
+    pinned = target = one_point = None
     if pins is not None:
         pinned, target = pin_targets(topo, pins, len(X))
         target = target / unit
         count = np.bincount(islands.label, pinned, minlength=islands.n)
-        shaping = pinned & (count >= 3)[islands.label]  # one or two pins do not shape an island
+        one_point = (count >= 2) & ~pins_spread(pinned, target, islands)  # placed, not scaled
+        # one or two pins, or pins all on one UV, do not shape an island
+        shaping = pinned & ((count >= 3) & ~one_point)[islands.label]
     t1 = time.perf_counter()
     # the elimination plan needs no weights: on large meshes it runs beside Steps 1-2, and
     # the refinement's factored proxy (it needs the plan's order) beside Step 3
@@ -328,7 +335,7 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
         flipped=flipped,
         eigenvalues=emb.eigenvalues,
         converged=emb.converged,
-        warnings=_warnings(topo, emb, clipped, wstats, flipped, int((~used).sum()), info, reached),
+        warnings=_warnings(topo, emb, clipped, wstats, flipped, int((~used).sum()), info, reached, one_point),
         timings=t,
         stats=stats,
         _mesh=(V, F),

@@ -109,7 +109,8 @@ def place(Y, islands: Islands, pack: bool = True, margin: float = 0.02, fixed=No
     The rotation makes the layout deterministic and compact. With ``pack`` the islands
     go on shelves in mesh units (true scale, no overlap), ``margin`` being a fraction of
     the square root of their total area; otherwise each island is centred at the origin.
-    Islands in ``fixed`` (n_islands,) bool keep their frame (pinned islands).
+    Islands in ``fixed`` (n_islands,) bool keep their frame (pinned islands); packed
+    islands go to the right of them.
     """
     nI = islands.n
     fixed = np.zeros(nI, dtype=bool) if fixed is None else fixed
@@ -123,14 +124,20 @@ def place(Y, islands: Islands, pack: bool = True, margin: float = 0.02, fixed=No
     skew = islands.sum(Yr[:, :1] ** 3)[:, 0]
     turn = np.where(skew < 0, -1.0, 1.0)
     Yr *= islands.expand(turn)[:, None]
-    if pack:
+    if fixed.any():
+        Yr = np.where(fixed[islands.label][:, None], Y, Yr)
+    if pack and not fixed.all():
         lo = np.minimum.reduceat(Yr, islands.start[:-1], axis=0)  # islands are contiguous row blocks
         hi = np.maximum.reduceat(Yr, islands.start[:-1], axis=0)
         size = hi - lo
         gap = margin * np.sqrt(max(float(np.prod(size, axis=1).sum()), 1e-300))
-        Yr = Yr - islands.expand(lo) + islands.expand(_shelves(size, gap))
-    if fixed.any():
-        Yr = np.where(fixed[islands.label][:, None], Y, Yr)
+        free = np.flatnonzero(~fixed)
+        corner = np.zeros((nI, 2))
+        corner[free] = _shelves(size[free], gap)
+        if fixed.any():  # the free islands go to the right of the pinned ones
+            corner[free] += [hi[fixed, 0].max() + gap, lo[fixed, 1].min()]
+        shift = np.where(fixed[:, None], 0.0, corner - lo)
+        Yr = Yr + islands.expand(shift)
     return Yr
 
 

@@ -56,6 +56,15 @@ def validate(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     return V, F
 
 
+def _array(x, name: str, dtype) -> np.ndarray:
+    """``x`` as an array (a fresh copy if ``dtype`` is given); ragged or non-numeric input
+    is an :class:`InvalidMeshError`."""
+    try:
+        return np.asarray(x) if dtype is None else np.array(x, dtype=dtype, copy=True)
+    except (TypeError, ValueError) as e:  # ragged lists, strings, objects
+        raise InvalidMeshError("shape", f"{name} must be an array of numbers: {e}") from None
+
+
 def _check(vertices, faces, split_bowties: bool = False):
     """Check a triangle mesh and return float64 / int64 copies.
 
@@ -80,8 +89,8 @@ def _check(vertices, faces, split_bowties: bool = False):
         repeated inside a face, the same face twice, an edge shared by more than two
         faces, or a vertex whose faces do not form one fan.
     """
-    V = np.array(vertices, dtype=np.float64, copy=True)
-    F_in = np.asarray(faces)
+    V = _array(vertices, "vertices", np.float64)
+    F_in = _array(faces, "faces", None)
     if V.ndim != 2 or V.shape[1] != 3:
         raise InvalidMeshError("shape", f"vertices must have shape (n, 3), got {V.shape}")
     if F_in.ndim != 2 or F_in.shape[1] != 3:
@@ -592,7 +601,7 @@ def _cut_graph(X, Fs, he, face_island, todo, area, inner):
        the short loops (one per handle) and paths (one per extra boundary loop) to cut.
 
     A closed island of genus 0 has an empty cut graph; it is cut along the shortest path
-    from the root to the vertex farthest from it.
+    from the root to the vertex farthest from it, at least two edges long.
 
     Edges flagged ``inner`` (polygon diagonals) cost more than any path without them in
     T and in the genus-0 path, and join D first, so they are cut only when nothing else
@@ -676,6 +685,12 @@ def _cut_graph(X, Fs, he, face_island, todo, area, inner):
         path = [b]
         while path[-1] != r:  # walks one path, O(sqrt(n)) steps on a typical mesh
             path.append(int(p1[path[-1]]))
+        if len(path) == 2:
+            # one edge opens nothing (its two sides join the same two vertices, which
+            # is still one edge): go on to the neighbour of b costing least that is not r
+            nb = graph.indices[graph.indptr[b] : graph.indptr[b + 1]]
+            cost = graph.data[graph.indptr[b] : graph.indptr[b + 1]]
+            path.insert(0, int(nb[np.argmin(np.where(nb == r, np.inf, cost))]))
         p = np.asarray(path)
         pk = np.minimum(p[:-1], p[1:]) * np.int64(ns) + np.maximum(p[:-1], p[1:])
         cut[np.searchsorted(ekey, pk)] = True

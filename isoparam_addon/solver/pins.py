@@ -15,9 +15,9 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from .blocks import Islands
-from .errors import InvalidMeshError
+from .errors import InvalidMeshError, offenders
 
-__all__ = ["pin_targets", "fit_to_pins", "similarity", "deform_to_pins", "refine_to_pins"]
+__all__ = ["pin_targets", "pins_spread", "fit_to_pins", "similarity", "deform_to_pins", "refine_to_pins"]
 
 
 def pin_targets(topo, pins, n: int):
@@ -34,14 +34,19 @@ def pin_targets(topo, pins, n: int):
     pinned : (n,) bool, target : (n, 2) float64
         A vertex pinned at several corners with different UVs gets their mean.
     """
-    mask, uv = pins
-    mask = np.asarray(mask, dtype=bool)
-    uv = np.asarray(uv, dtype=np.float64)
     m = len(topo.corner_vertex)
+    shapes = f"pins must be ((m, 3) bool, (m, 3, 2) float) with m = {m}"
+    try:
+        mask, uv = pins
+        mask = np.asarray(mask, dtype=bool)
+        uv = np.asarray(uv, dtype=np.float64)
+    except (TypeError, ValueError) as e:  # not a pair, ragged lists, non-numbers
+        raise InvalidMeshError("shape", f"{shapes}: {e}") from None
     if mask.shape != (m, 3) or uv.shape != (m, 3, 2):
-        raise InvalidMeshError("shape", f"pins must be ((m, 3) bool, (m, 3, 2) float) with m = {m}")
-    if not np.isfinite(uv[mask]).all():
-        raise InvalidMeshError("non_finite", "pinned UVs must be finite")
+        raise InvalidMeshError("shape", shapes)
+    bad = np.flatnonzero((mask & ~np.isfinite(uv).all(axis=2)).any(axis=1))
+    if bad.size:
+        raise offenders("non_finite", "have pinned corners with non-finite UVs", "face", bad)
     v = topo.corner_vertex[mask]
     count = np.bincount(v, minlength=n)
     target = np.zeros((n, 2))
@@ -50,26 +55,40 @@ def pin_targets(topo, pins, n: int):
     return count > 0, target
 
 
+def _spread(P, w, lab, nI):
+    """Per island: the centroid of the points of P with weight 1 (nI, 2), their offsets
+    from it (n, 2; zero where w is 0), the sum of squared offsets (nI,), and whether
+    they are not all one point to rounding (nI,) bool."""
+    tot = np.maximum(np.bincount(lab, w, minlength=nI), 1.0)  # w is 0 or 1
+    mean = np.stack([np.bincount(lab, P[:, c] * w, minlength=nI) for c in range(2)], 1) / tot[:, None]
+    d = (P - mean[lab]) * w[:, None]
+    var = np.bincount(lab, (d * d).sum(axis=1), minlength=nI)
+    size = np.bincount(lab, (P * P).sum(axis=1) * w, minlength=nI)
+    return mean, d, var, var > 1e-24 * np.maximum(size, 1e-300)
+
+
+def pins_spread(pinned, target, islands: Islands) -> np.ndarray:
+    """(n_islands,) bool: the island has pins, and not all on one UV."""
+    return _spread(target, pinned.astype(np.float64), islands.label, islands.n)[3]
+
+
 def fit_to_pins(Y, pinned, target, islands: Islands):
     """Per island with pins: the similarity (or, with one pin, the shift) onto them.
 
     Returns ``(scale (k,), angle (k,), shift (k, 2), held (k,) bool)`` per island, the
     map being ``y -> scale * R(angle) y + shift``; the identity where ``held`` is False.
+    Where the pins' targets coincide (they give no rotation and no scale) the island is
+    only shifted, as with one pin, rather than shrunk to a point.
     """
     w = pinned.astype(np.float64)
     lab = islands.label
     nI = islands.n
-    tot = np.bincount(lab, w, minlength=nI)
-    held = tot > 0
-    safe = np.where(held, tot, 1.0)
-    ms = np.stack([np.bincount(lab, Y[:, c] * w, minlength=nI) for c in range(2)], 1) / safe[:, None]
-    md = np.stack([np.bincount(lab, target[:, c] * w, minlength=nI) for c in range(2)], 1) / safe[:, None]
-    a = (Y - ms[lab]) * w[:, None]
-    b = (target - md[lab]) * w[:, None]
+    held = np.bincount(lab, w, minlength=nI) > 0
+    ms, a, var, spread = _spread(Y, w, lab, nI)
+    md, b, _, apart = _spread(target, w, lab, nI)
+    spread &= apart
     dot = np.bincount(lab, (a * b).sum(axis=1), minlength=nI)
     cross = np.bincount(lab, a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], minlength=nI)
-    var = np.bincount(lab, (a * a).sum(axis=1), minlength=nI)
-    spread = var > 1e-24 * np.maximum(np.bincount(lab, (Y * Y).sum(axis=1) * w, minlength=nI), 1e-300)
     angle = np.where(spread, np.arctan2(cross, dot), 0.0)
     scale = np.where(spread, np.hypot(dot, cross) / np.where(spread, var, 1.0), 1.0)
     c, si = np.cos(angle), np.sin(angle)
