@@ -72,6 +72,19 @@ def _apply(uv, island, s, R, shift):
     return s[island][:, None, None] * np.einsum("tij,tkj->tki", R[island], uv) + shift[island][:, None, :]
 
 
+def _into_unit_square(uv, margin):
+    """The layout (t, 3, 2) scaled into [0, 1], relative sizes kept, with the space around
+    it that Blender's ``pack_islands`` leaves one island (margin_method SCALED, measured
+    on bpy 5.0.1: a gap of margin * sqrt(bounding box area) / 10, so any margin in 0..1
+    leaves room)."""
+    lo = uv.reshape(-1, 2).min(axis=0)
+    box = uv.reshape(-1, 2).max(axis=0) - lo
+    size = max(float(box.max()), 1e-300)
+    side = np.sqrt(box[0] * box[1]) / size  # of the box's area once the layout is 1 wide
+    room = 1.0 / (1.0 + 0.2 * margin * side)
+    return 0.1 * margin * side * room + (uv - lo) * (room / size)
+
+
 def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, margin=0.0):
     """Final corner UVs of the unwrapped triangles.
 
@@ -88,14 +101,16 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, mar
     in_place : bool
         Put every island where its old UVs were: same centroid, the best-fitting
         rotation, and (unless ``world_scale``) the same UV area, so texel density stays.
-        Islands whose old UVs have no area are laid out anew.
+        Islands whose old UVs have no area (a mesh never unwrapped) are laid out anew,
+        fitted into [0, 1] unless ``world_scale``.
     world_scale : bool
         Keep mesh units (1 UV unit = 1 world unit) instead of fitting into [0, 1].
     aspect : (t,) float64, optional
         Image width / height under each triangle: u is divided by it, so texels come
         out square.
     margin : float
-        Space kept around the layout when it is fitted into [0, 1].
+        Space kept around the layout when it is fitted into [0, 1], as Blender's
+        ``uv.pack_islands`` keeps it.
 
     Returns
     -------
@@ -107,10 +122,7 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, mar
     if aspect is not None:
         uv[..., 0] /= aspect[:, None]
     if not world_scale and not in_place:
-        lo = uv.reshape(-1, 2).min(axis=0)
-        size = max(float((uv.reshape(-1, 2).max(axis=0) - lo).max()), 1e-300)
-        room = max(1.0 - 2.0 * margin, 1e-6)
-        uv = margin + (uv - lo) * (room / size)  # the whole layout into [0, 1], relative sizes kept
+        uv = _into_unit_square(uv, margin)
     w_lock = locked.astype(np.float64)
     n_locked = _sums(island, w_lock, n)
     held = n_locked > 0
@@ -129,6 +141,10 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, mar
         R = np.where(fit[:, None, None], R, np.eye(2))
         shift = np.where(fit[:, None], c_old - s[:, None] * np.einsum("nij,nj->ni", R, c_new), 0.0)
         uv = _apply(uv, island, s, R, shift)
+        fresh = ~fit & ~held  # no old UVs to keep: laid out as without in_place
+        if not world_scale and fresh.any():
+            rows = fresh[island]
+            uv[rows] = _into_unit_square(uv[rows], 0.0)
     if held.any():
         s, R, shift, ok = similarity_fit(uv, old, island, w_lock, n, scale=not world_scale)
         s = np.where(held, s, 1.0)

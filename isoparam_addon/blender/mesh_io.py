@@ -102,7 +102,13 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
     me = obj.data
     nv, ne, nl, nf = len(me.vertices), len(me.edges), len(me.loops), len(me.polygons)
     uv_name = me.uv_layers.active.name if me.uv_layers.active is not None else ""
-    pos = _attribute(me, ["position"], 3, np.float32, nv).astype(np.float64)
+    key = obj.active_shape_key
+    if key is not None:  # edit mode shows, and Blender's unwrap flattens, the active key
+        pos = np.empty(3 * nv, dtype=np.float32)
+        key.data.foreach_get("co", pos)
+        pos = pos.reshape(nv, 3).astype(np.float64)
+    else:
+        pos = _attribute(me, ["position"], 3, np.float32, nv).astype(np.float64)
     if world_space:
         M = np.array(obj.matrix_world, dtype=np.float64)
         pos = pos @ M[:3, :3].T + M[:3, 3]

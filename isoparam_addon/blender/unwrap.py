@@ -7,6 +7,7 @@ cancels the whole operation with the mesh and its UVs exactly as they were.
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import bpy
@@ -55,23 +56,55 @@ def _describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
     return f"'{sel.name}': {text}" + (f". {hint}" if hint else "")
 
 
-def _aspect(obj, material_index: np.ndarray) -> np.ndarray | None:
-    """Width / height of the active image texture of each triangle's material."""
-    ratios = np.ones(max(len(obj.material_slots), 1))
-    found = False
-    for i, slot in enumerate(obj.material_slots):  # a handful of material slots
-        mat = slot.material
-        if mat is None or mat.node_tree is None:  # (use_nodes is deprecated in 5.0)
-            continue
-        nodes = mat.node_tree.nodes
-        node = nodes.active if nodes.active is not None and nodes.active.type == "TEX_IMAGE" else None
-        node = node or next((nd for nd in nodes if nd.type == "TEX_IMAGE" and nd.image is not None), None)
-        if node is not None and node.image is not None and node.image.size[1] > 0:
-            ratios[i] = node.image.size[0] / node.image.size[1]
-            found = True
-    if not found:
+def _aspect(obj, sel: mesh_io.Selection) -> float | None:
+    """Width / height of the image Blender's own unwrap corrects for: the active image
+    texture of the material of the active face, or else of the first selected face.
+    One value per object, so an island spanning several materials does not tear (as
+    with ``uv.unwrap``; measured on bpy 4.2.23 and 5.0.1)."""
+    face = obj.data.polygons.active
+    if not np.any(sel.tri_poly == face):  # none active, or not unwrapped
+        face = int(sel.tri_poly[0])
+    slot = int(sel.face_material[np.argmax(sel.tri_poly == face)])
+    if not 0 <= slot < len(obj.material_slots):
         return None
-    return ratios[np.clip(material_index, 0, len(ratios) - 1)]
+    mat = obj.material_slots[slot].material
+    if mat is None or mat.node_tree is None:  # (use_nodes is deprecated in 5.0)
+        return None
+    nodes = mat.node_tree.nodes
+    node = nodes.active if nodes.active is not None and nodes.active.type == "TEX_IMAGE" else None
+    node = node or next((nd for nd in nodes if nd.type == "TEX_IMAGE" and nd.image is not None), None)
+    if node is None or node.image is None or node.image.size[1] == 0:
+        return None
+    return node.image.size[0] / node.image.size[1]
+
+
+@contextmanager
+def _object_mode(context):
+    """Object mode for the bulk mesh I/O, then edit mode again for exactly the objects
+    that were in it, with the object selection and the active object as they were.
+
+    ``object.mode_set(mode="EDIT")`` enters every *selected* mesh: an object in edit
+    mode but deselected would be left out, a selected one that was not in edit mode
+    would be pulled in, unless the selection is set to the edit set around the call.
+    """
+    in_mode = list(context.objects_in_mode)
+    layer = context.view_layer
+    active = layer.objects.active
+    selected = list(context.selected_objects)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    try:
+        yield
+    finally:
+        for ob in selected:  # objects, not mesh elements
+            ob.select_set(False)
+        for ob in in_mode:
+            ob.select_set(True)
+        layer.objects.active = active
+        bpy.ops.object.mode_set(mode="EDIT")
+        for ob in in_mode:
+            ob.select_set(False)
+        for ob in selected:
+            ob.select_set(True)
 
 
 @dataclass
@@ -96,18 +129,17 @@ def run(op, context, opts: Options) -> set:
     objects = [ob for ob in context.objects_in_mode_unique_data if ob.type == "MESH"]
     wm.progress_begin(0, 2 * len(objects) + 2)
     # in edit mode the Mesh arrays are stale: read and write them in object mode
-    bpy.ops.object.mode_set(mode="OBJECT")
     try:
-        solved = _solve_all(op, objects, opts, wm, uv_editor and not sync)
-        if solved is None:
-            return {"CANCELLED"}
-        for s in solved:  # one write per mesh
-            _write(s)
-            if opts.show_stretch:
-                _write_stretch(s.obj.data, s.sel, s.distortion)
-        wm.progress_update(2 * len(objects) + 1)
+        with _object_mode(context):
+            solved = _solve_all(op, objects, opts, wm, uv_editor and not sync)
+            if solved is None:
+                return {"CANCELLED"}
+            for s in solved:  # one write per mesh
+                _write(s)
+                if opts.show_stretch:
+                    _write_stretch(s.obj.data, s.sel, s.distortion)
+            wm.progress_update(2 * len(objects) + 1)
     finally:
-        bpy.ops.object.mode_set(mode="EDIT")
         wm.progress_end()
     held = any(s.held.any() for s in solved)
     if opts.pack and (sum(s.n_islands for s in solved) > 1 or held):
@@ -170,7 +202,8 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             op.report({"ERROR"}, f"Isometric Unwrap gave non-finite UVs on '{sel.name}'. Nothing was changed")
             return None
         wm.progress_update(len(objects) + k)
-        aspect = _aspect(ob, sel.face_material) if opts.correct_aspect else None
+        ratio = _aspect(ob, sel) if opts.correct_aspect else None
+        aspect = None if ratio is None else np.full(len(sel.tri_poly), ratio)
         uv, held = layout.place(
             res.corner_uv,
             res.face_island,
@@ -220,9 +253,8 @@ def _report(op, solved, seconds: float) -> None:
 def show_stretch(op, context) -> set:
     """Colour every face of the meshes in edit mode by the distortion of the active UV map."""
     objects = [ob for ob in context.objects_in_mode_unique_data if ob.type == "MESH"]
-    bpy.ops.object.mode_set(mode="OBJECT")
     parts = []
-    try:
+    with _object_mode(context):
         for ob in objects:  # one mesh at a time
             me = ob.data
             if me.uv_layers.active is None or not len(me.polygons):
@@ -232,8 +264,6 @@ def show_stretch(op, context) -> set:
             d, part = stretch.measure(sel.V, sel.F, cuv)
             _write_stretch(me, sel, d)
             parts.append(part)
-    finally:
-        bpy.ops.object.mode_set(mode="EDIT")
     if not parts:
         op.report({"ERROR"}, "Show Stretch: no mesh in edit mode has a UV map")
         return {"CANCELLED"}

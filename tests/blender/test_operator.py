@@ -141,6 +141,24 @@ def test_pack_shapes(scene, shape):
         assert (a.max(0) <= b.min(0) + 1e-6).any() or (b.max(0) <= a.min(0) + 1e-6).any()
 
 
+@pytest.mark.parametrize("margin", [0.001, 0.5, 1.0])
+def test_a_single_island_gets_the_margin_blenders_pack_gives_it(scene, margin):
+    # one island is fitted into [0, 1] by the add-on (Blender's pack would cost 0.17 s at
+    # 100k vertices); packing the result again must not move it. A margin of 0.5 or more
+    # used to collapse the island to a point.
+    V, F = ex.peaks(15)
+    ob = add_mesh("peaks", V, F)
+    edit(ob)
+    assert unwrap(margin=margin) == {"FINISHED"}
+    object_mode()
+    ours = corner_uvs(ob).copy()
+    assert ours.min() > 0 and ours.max() < 1 and np.ptp(ours, axis=0).min() > 0.5
+    edit(ob)
+    bpy.ops.uv.pack_islands(margin=margin, rotate=False, scale=True)
+    object_mode()
+    assert np.abs(corner_uvs(ob) - ours).max() < 1e-5
+
+
 def test_quads_and_ngons_get_one_uv_per_corner(scene):
     # a quad grid with an octagon n-gon in its middle replaced
     n = 6
@@ -236,6 +254,25 @@ def test_two_objects_in_edit_mode(scene):
     assert (hi_a <= lo_b + 1e-6).any() or (hi_b <= lo_a + 1e-6).any()
 
 
+@pytest.mark.parametrize("operator", ["unwrap", "show_stretch"])
+def test_the_edit_mode_set_and_the_selection_survive_the_operator(scene, operator):
+    # the operator leaves edit mode for the bulk I/O; going back must not pull in a
+    # selected object that was not in edit mode, nor drop a deselected one that was
+    V, F = ex.peaks(5)
+    a, b, c = (add_mesh(name, V, F, location=(5 * k, 0, 0)) for k, name in enumerate("ABC"))
+    edit(a, b)
+    b.select_set(False)  # B stays in edit mode, deselected (as from the outliner)
+    c.select_set(True)  # C is selected, not in edit mode
+    run = unwrap if operator == "unwrap" else bpy.ops.uv.isometric_show_stretch
+    if operator == "show_stretch":
+        unwrap()
+    assert run() == {"FINISHED"}
+    assert sorted(ob.name for ob in bpy.context.objects_in_mode) == ["A", "B"]
+    assert [a.select_get(), b.select_get(), c.select_get()] == [True, False, True]
+    assert bpy.context.view_layer.objects.active == a
+    assert not c.data.uv_layers  # never touched
+
+
 def test_undo_restores_the_previous_uvs(scene):
     # Headless Blender records no edit-mode undo steps (measured: ed.undo() in edit mode
     # goes back to the last global step), so the step is pushed in object mode.
@@ -276,6 +313,45 @@ def test_unwrap_in_place_keeps_islands_where_they_were(scene):
     assert uv_area(cuv_after) == pytest.approx(uv_area(cuv_before), rel=1e-4)  # same texel density
 
 
+@pytest.mark.parametrize("world_scale", [False, True])
+def test_unwrap_in_place_on_a_mesh_with_no_uvs_yet(scene, world_scale):
+    # nothing to keep in place: the island is laid out as a fresh unwrap, in [0, 1]
+    # unless True World Scale asks for mesh units (it used to stay in mesh units always)
+    V, F = ex.peaks(21)
+    ob = add_mesh("peaks", 100 * V, F)  # 600 units across
+    edit(ob)
+    assert unwrap(pack=False, world_scale=world_scale) == {"FINISHED"}
+    object_mode()
+    uv = corner_uvs(ob)
+    if world_scale:
+        assert np.ptp(uv, axis=0).max() > 100
+    else:
+        assert uv.min() >= 0 and uv.max() <= 1 and np.ptp(uv, axis=0).max() == pytest.approx(1, abs=1e-6)
+    assert metrics.edge_rms(*triangle_uvs(ob)) < 0.3
+
+
+def test_the_active_shape_key_is_unwrapped(scene):
+    # edit mode shows the active shape key, and Blender's unwrap flattens it: here a
+    # strip bent into a half cylinder (developable) over a Basis stretched 3x along x
+    nu, nv = 17, 5
+    s, t = np.meshgrid(np.linspace(0, 8, nu), np.linspace(0, 2, nv))  # u fastest, as grid_faces
+    F = ex.grid_faces(nu, nv)
+    radius = 8 / np.pi
+    bent = np.stack([radius * np.sin(s / radius), t, radius * (1 - np.cos(s / radius))], -1).reshape(-1, 3)
+    basis = np.stack([3 * s, t, 0 * s], -1).reshape(-1, 3)
+    ob = add_mesh("keyed", basis, F)
+    ob.shape_key_add(name="Basis")
+    ob.shape_key_add(name="Bent").data.foreach_set("co", bent.ravel())
+    ob.active_shape_key_index = 1
+    edit(ob)
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    tri = triangles(ob)
+    uv = corner_uvs(ob)[tri].astype(np.float64)
+    assert metrics.edge_rms(bent, corner_verts(ob)[tri], uv) < 1e-5
+    assert metrics.edge_rms(basis, corner_verts(ob)[tri], uv) > 0.1
+
+
 def test_true_world_scale_follows_the_object_transform(scene):
     V, F, _ = ex.s_surface(30, 8)
     ob = add_mesh("S", V, F)
@@ -288,19 +364,23 @@ def test_true_world_scale_follows_the_object_transform(scene):
     np.testing.assert_allclose(l2, l3, rtol=1e-5)
 
 
+def image_material(name, width, height):
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0, 0):  # pragma: no cover - always on in 5.0
+        mat.use_nodes = True
+    node = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    node.image = bpy.data.images.new(name, width, height)
+    mat.node_tree.nodes.active = node
+    return mat
+
+
 def test_correct_aspect_squeezes_u_for_a_wide_image(scene):
     V, F, _ = ex.s_surface(30, 8)
     results = {}
     for correct in (False, True):
         bpy.ops.wm.read_homefile(use_empty=True)
         ob = add_mesh("S", V, F)
-        mat = bpy.data.materials.new("wide")
-        if bpy.app.version < (5, 0, 0):  # pragma: no cover - always on in 5.0
-            mat.use_nodes = True
-        node = mat.node_tree.nodes.new("ShaderNodeTexImage")
-        node.image = bpy.data.images.new("wide", 256, 128)
-        mat.node_tree.nodes.active = node
-        ob.data.materials.append(mat)
+        ob.data.materials.append(image_material("wide", 256, 128))
         edit(ob)
         unwrap(correct_aspect=correct, pack=False, world_scale=True)
         object_mode()
@@ -309,6 +389,37 @@ def test_correct_aspect_squeezes_u_for_a_wide_image(scene):
     ext_plain = np.sort(np.ptp(results[False], axis=0))
     ext_fixed = np.ptp(results[True], axis=0)
     assert np.prod(ext_fixed) == pytest.approx(np.prod(ext_plain) / 2, rel=1e-3)
+
+
+@pytest.mark.parametrize("active", [None, 3, 12])
+def test_correct_aspect_takes_one_image_per_object_as_blender_does(scene, active):
+    # a plane whose lower half shows a 2:1 image and upper half a square one: Blender's
+    # unwrap corrects the whole object for the active face's image (else the first
+    # face's); a per-face correction used to tear the island where the materials meet
+    V = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)) + [np.zeros((5, 5))], -1).reshape(-1, 3)
+    quads = [[5 * j + i, 5 * j + i + 1, 5 * j + i + 6, 5 * j + i + 5] for j in range(4) for i in range(4)]
+    ratios = {}
+    for method in ("blender", "isoparam"):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        ob = add_mesh("plane", V, quads)
+        ob.data.materials.append(image_material("wide", 256, 128))
+        ob.data.materials.append(image_material("square", 128, 128))
+        ob.data.polygons.foreach_set("material_index", np.repeat([0, 1], 8).astype(np.int32))
+        if active is not None:
+            ob.data.polygons.active = active
+        edit(ob)
+        if method == "blender":
+            bpy.ops.uv.unwrap(method="CONFORMAL", correct_aspect=True)
+        else:
+            assert unwrap(correct_aspect=True) == {"FINISHED"}
+        object_mode()
+        uv, cv = corner_uvs(ob), corner_verts(ob)
+        per_vertex = np.zeros((len(V), 2))
+        per_vertex[cv] = uv
+        assert np.abs(per_vertex[cv] - uv).max() < 1e-6  # one UV per vertex: no tear
+        ratios[method] = np.ptp(uv[:, 0]) / np.ptp(uv[:, 1])
+    assert ratios["isoparam"] == pytest.approx(1.0 if active == 12 else 0.5, rel=1e-4)
+    assert ratios["isoparam"] == pytest.approx(ratios["blender"], rel=1e-4)
 
 
 @pytest.mark.parametrize("primitive", ["cube", "cylinder", "cone"])
