@@ -447,10 +447,16 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
     face_island = _face_components(m, he, np.zeros(he.n_edges, dtype=bool))
     n_islands = int(face_island.max()) + 1
     Vu = V / unit_of(V)  # areas and lengths below only compare with each other
-    area = 0.5 * np.linalg.norm(np.cross(Vu[F[:, 1]] - Vu[F[:, 0]], Vu[F[:, 2]] - Vu[F[:, 0]]), axis=1)
-    if he.consistent(Fs):
+
+    def face_areas():  # only for orienting and cutting
+        return 0.5 * np.linalg.norm(np.cross(Vu[F[:, 1]] - Vu[F[:, 0]], Vu[F[:, 2]] - Vu[F[:, 0]]), axis=1)
+
+    area = None
+    # the fans of validation were walked because F was consistently oriented
+    if (Fs is F and fan0 is not None) or he.consistent(Fs):
         flip, orientable = np.zeros(m, dtype=bool), np.ones(n_islands, dtype=bool)
     else:  # pragma: no branch
+        area = face_areas()
         flip, orientable = _orientation(Fs, he, face_island, n_islands, area)
     chi, n_loops = _island_counts(Fs, ns, he, face_island, n_islands)
     disk = orientable & (chi == 1) & (n_loops == 1)
@@ -472,6 +478,7 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
             inner = np.isin(ev[:, 0] * np.int64(n) + ev[:, 1], ev0[:, 0] * np.int64(n) + ev0[:, 1])
         else:
             inner = np.zeros(he.n_edges, dtype=bool)
+        area = face_areas() if area is None else area
         cut = _cut_graph(Vu[vertex_of], Fs, he, face_island, ~disk, area, inner)
         flip = _orient_cut(Fs, he, face_island, n_islands, area, cut, flip, ~disk)
         Fs2, vertex_of2 = _split(Fs, ns, cut, he)
