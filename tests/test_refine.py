@@ -186,6 +186,15 @@ def test_pins_all_on_one_uv_move_the_island_without_collapsing_it(refine, n_pins
 
     assert mean_edge(r.corner_uv) == pytest.approx(mean_edge(free.corner_uv), rel=0.05)
     assert any("all their pins on one UV" in w for w in r.warnings)
+    # the island is the free layout moved rigidly so that the pinned vertices' centroid
+    # lands on the pins (then they are snapped there): fit the motion on the other vertices
+    rest = np.setdiff1d(np.arange(len(V)), list(targets))
+    a, b = free.uv[rest], r.uv[rest]
+    u, _, vt = np.linalg.svd((a - a.mean(0)).T @ (b - b.mean(0)))
+    R = u @ vt
+    moved = (free.uv - a.mean(0)) @ R + b.mean(0)
+    assert np.abs(moved[rest] - b).max() < 1e-3 * np.ptp(b)  # rigid indeed
+    assert np.linalg.norm(moved[list(targets)].mean(0) - [0.3, 0.3]) < 1e-3 * np.ptp(b)
 
 
 def test_packed_islands_keep_clear_of_pinned_ones():
@@ -201,3 +210,19 @@ def test_packed_islands_keep_clear_of_pinned_ones():
     a, b = r.uv[: len(V1)], r.uv[len(V1) :]
     apart = (a.max(axis=0) < b.min(axis=0)) | (b.max(axis=0) < a.min(axis=0))
     assert apart.any()  # the boxes are separated along u or v
+
+
+def test_pins_that_do_not_shape_an_island_do_not_stop_its_unfolding():
+    # the four-step layout of a closed sphere folds; one pin only places the island, so
+    # the refinement must unfold it as without pins (it used to give up: "could not all
+    # be reached"). A vertex on the automatic cut has two copies: still one pinned vertex.
+    V, F = ex.sphere(3)
+    free = parametrize(V, F)
+    assert free.flipped.sum() > 0
+    on_cut = int(np.flatnonzero(np.bincount(free.cut_edges.ravel(), minlength=len(V)) == 2)[0])
+    for v in (on_cut, len(V) // 2):
+        r = parametrize(V, F, refine=100, pins=_pins(F, {v: (0.5, 0.5)}))
+        assert not any("could not all be reached" in w or "on one UV" in w for w in r.warnings)
+        assert np.abs(r.corner_uv[F == v] - 0.5).max() == 0.0
+        if v != on_cut:  # (the two copies of a cut vertex are both held at the one pin)
+            assert metrics.flipped(V, F, r.corner_uv) == 0

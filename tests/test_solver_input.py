@@ -60,7 +60,7 @@ def test_bad_pins():
     uv[1, 2] = np.nan
     uv[0, 0] = np.inf  # not pinned: ignored
     message = r"1 face have pinned corners with non-finite UVs \(first: face 1\)"
-    err = raises("non_finite", V, F, message, pins=(mask, uv))
+    err = raises("non_finite_pin", V, F, message, pins=(mask, uv))
     assert err.indices.tolist() == [1]
 
 

@@ -32,6 +32,7 @@ class Options:
 
 _HINTS = {
     "non_finite": "Some vertices have invalid (NaN or infinite) coordinates",
+    "non_finite_pin": "Clear the pins (UV > Unpin) of that face, or give them valid UVs",
     "non_manifold_edge": "Select > Select All by Trait > Non Manifold shows them",
     "non_manifold_vertex": "Select > Select All by Trait > Non Manifold shows them; "
     "Mesh > Split > Faces by Edges, or a seam through them, separates the fans",
@@ -58,13 +59,12 @@ def _describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
 
 def _aspect(obj, sel: mesh_io.Selection) -> float | None:
     """Width / height of the image Blender's own unwrap corrects for: the active image
-    texture of the material of the active face, or else of the first selected face.
-    One value per object, so an island spanning several materials does not tear (as
-    with ``uv.unwrap``; measured on bpy 4.2.23 and 5.0.1)."""
-    face = obj.data.polygons.active
-    if not np.any(sel.tri_poly == face):  # none active, or not unwrapped
-        face = int(sel.tri_poly[0])
-    slot = int(sel.face_material[np.argmax(sel.tri_poly == face)])
+    texture of the material of the active face (selected or not), or else of the first
+    unwrapped face. One value per object, so an island spanning several materials does
+    not tear (as with ``uv.unwrap``; measured on bpy 4.2.23 and 5.0.1)."""
+    polygons = obj.data.polygons
+    face = polygons.active
+    slot = polygons[face].material_index if 0 <= face < len(polygons) else int(sel.face_material[0])
     if not 0 <= slot < len(obj.material_slots):
         return None
     mat = obj.material_slots[slot].material

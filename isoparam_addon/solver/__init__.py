@@ -91,7 +91,9 @@ class Parametrization:
         return metrics.distortion(V, F, self.corner_uv, self.face_island)
 
 
-def _warnings(topo: Topology, emb, clipped, wstats, flipped, unused, info=None, reached=True, one_point=None):
+def _warnings(
+    topo: Topology, emb, clipped, wstats, flipped, unused, info=None, reached=True, one_point=None
+) -> list[str]:
     out = []
     for name, isl in (
         ("closed", topo.closed_islands),
@@ -260,7 +262,11 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
         pinned, target = pin_targets(topo, pins, len(X))
         target = target / unit
         count = np.bincount(islands.label, pinned, minlength=islands.n)
-        one_point = (count >= 2) & ~pins_spread(pinned, target, islands)  # placed, not scaled
+        # several pinned mesh vertices on one UV place the island but do not scale it (the
+        # copies of one pinned vertex split by a seam or cut count once)
+        pin_pairs = np.unique(islands.label[pinned] * np.int64(len(V)) + topo.vertex_of[pinned])
+        distinct = np.bincount(pin_pairs // len(V), minlength=islands.n)
+        one_point = (distinct >= 2) & ~pins_spread(pinned, target, islands)
         # one or two pins, or pins all on one UV, do not shape an island
         shaping = pinned & ((count >= 3) & ~one_point)[islands.label]
     t1 = time.perf_counter()
@@ -301,7 +307,7 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
             Y = info.uv
         Y = similarity(Y, islands, *fit[:3])
         refit = fit_to_pins(Y, pinned, target, islands)  # islands with one or two pins: exact
-        light = (count <= 2)[islands.label][:, None]
+        light = ((count <= 2) | one_point)[islands.label][:, None]  # not shaped: fitted again
         Y = np.where(light, similarity(Y, islands, *refit[:3]), Y)
         Y[pinned] = target[pinned]
     elif refine:

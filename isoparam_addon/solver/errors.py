@@ -23,9 +23,9 @@ class InvalidMeshError(IsoparamError, ValueError):
     Attributes
     ----------
     kind : str
-        One of ``"empty"``, ``"shape"``, ``"non_finite"``, ``"index_range"``,
-        ``"repeated_vertex"``, ``"duplicate_face"``, ``"non_manifold_edge"``,
-        ``"non_manifold_vertex"``, ``"seam"``.
+        One of ``"empty"``, ``"shape"``, ``"non_finite"``, ``"non_finite_pin"``,
+        ``"index_range"``, ``"repeated_vertex"``, ``"duplicate_face"``,
+        ``"non_manifold_edge"``, ``"non_manifold_vertex"``, ``"seam"``.
     element : str
         ``"vertex"``, ``"face"`` or ``"edge"``: what ``indices`` index.
     indices : (k,) int

@@ -7,7 +7,8 @@ the unit square (Blender) and one in mesh units (isoparam) compare fairly.
 
 Edge measures use every UV edge once: an interior edge whose two faces agree on its
 UVs counts once, a seam edge counts once per side. Face measures skip faces of zero
-3D area (they carry no weight) and are weighted by 3D area.
+3D area (they carry no weight) and are weighted by 3D area; on a mesh with no face of
+positive area they are NaN (there is nothing to weight).
 
 Summary (:func:`distortion` returns all of them):
 

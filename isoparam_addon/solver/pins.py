@@ -46,7 +46,7 @@ def pin_targets(topo, pins, n: int):
         raise InvalidMeshError("shape", shapes)
     bad = np.flatnonzero((mask & ~np.isfinite(uv).all(axis=2)).any(axis=1))
     if bad.size:
-        raise offenders("non_finite", "have pinned corners with non-finite UVs", "face", bad)
+        raise offenders("non_finite_pin", "have pinned corners with non-finite UVs", "face", bad)
     v = topo.corner_vertex[mask]
     count = np.bincount(v, minlength=n)
     target = np.zeros((n, 2))
@@ -150,6 +150,8 @@ def refine_to_pins(refine, Y, faces, constrained, target, stages: int = 8):
     -------
     (Refinement, reached: bool)
     """
+    if not constrained.any():  # nothing to move: a folded start is the refinement's to repair
+        return refine(Y, constrained), True
     current = Y
     info = None
     fraction = 1.0

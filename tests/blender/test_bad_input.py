@@ -36,6 +36,7 @@ def prepared(V, F):
         ("non_finite", "non-finite coordinates"),
         ("three_faces_on_an_edge", "shared by more than two faces"),
         ("duplicate_face", "repeat the vertices of an earlier face"),
+        ("non_finite_pin", "pinned corners with non-finite UVs (first: face 5). Clear the pins"),
     ],
 )
 def test_bad_meshes_are_reported_and_left_untouched(scene, case, expect):
@@ -56,6 +57,18 @@ def test_bad_meshes_are_reported_and_left_untouched(scene, case, expect):
         pos[3 * 7] = np.nan
         me.attributes["position"].data.foreach_set("vector", pos)
         me.update()
+    if case == "non_finite_pin":  # face 5's first corner pinned at a NaN UV
+        me = ob.data
+        start = me.polygons[5].loop_start
+        pins = np.zeros(len(me.loops), dtype=bool)
+        pins[start] = True
+        layer = me.uv_layers.active
+        if hasattr(layer, "pin_ensure"):  # 5.0 creates pins lazily; 4.2 always has them
+            layer.pin_ensure()
+        layer.pin.foreach_set("value", pins)
+        uv = corner_uvs(ob)
+        uv[start] = np.nan
+        me.uv_layers.active.uv.foreach_set("vector", uv.ravel())
     before = snapshot(ob)
     result, message = run_and_capture(ob)
     assert result == {"CANCELLED"}

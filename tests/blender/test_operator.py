@@ -391,11 +391,22 @@ def test_correct_aspect_squeezes_u_for_a_wide_image(scene):
     assert np.prod(ext_fixed) == pytest.approx(np.prod(ext_plain) / 2, rel=1e-3)
 
 
-@pytest.mark.parametrize("active", [None, 3, 12])
-def test_correct_aspect_takes_one_image_per_object_as_blender_does(scene, active):
+def squeeze(uv_quad, xy_quad):
+    """Ratio of the singular values of the affine map from a planar quad's first triangle
+    to its UVs: 1 without aspect correction, the image aspect with it, whatever rotation
+    the packer chose."""
+    J = (uv_quad[1:3] - uv_quad[0]).T @ np.linalg.inv((xy_quad[1:3] - xy_quad[0]).T)
+    sig = np.linalg.svd(J, compute_uv=False)
+    return sig[0] / sig[1]
+
+
+@pytest.mark.parametrize(("active", "selected"), [(0, range(16)), (12, range(16)), (12, range(8)), (3, range(8, 16))])
+def test_correct_aspect_takes_one_image_per_object_as_blender_does(scene, active, selected):
     # a plane whose lower half shows a 2:1 image and upper half a square one: Blender's
-    # unwrap corrects the whole object for the active face's image (else the first
-    # face's); a per-face correction used to tear the island where the materials meet
+    # unwrap corrects the whole object for the active face's image, selected or not; a
+    # per-face correction used to tear the island where the materials meet
+    import bmesh
+
     V = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)) + [np.zeros((5, 5))], -1).reshape(-1, 3)
     quads = [[5 * j + i, 5 * j + i + 1, 5 * j + i + 6, 5 * j + i + 5] for j in range(4) for i in range(4)]
     ratios = {}
@@ -405,21 +416,28 @@ def test_correct_aspect_takes_one_image_per_object_as_blender_does(scene, active
         ob.data.materials.append(image_material("wide", 256, 128))
         ob.data.materials.append(image_material("square", 128, 128))
         ob.data.polygons.foreach_set("material_index", np.repeat([0, 1], 8).astype(np.int32))
-        if active is not None:
-            ob.data.polygons.active = active
-        edit(ob)
+        edit(ob, select_all=False)
+        bpy.ops.mesh.select_all(action="DESELECT")
+        bm = bmesh.from_edit_mesh(ob.data)
+        bm.faces.ensure_lookup_table()
+        for i in selected:  # test set-up on 16 faces
+            bm.faces[i].select_set(True)
+        bm.faces.active = bm.faces[active]
+        bmesh.update_edit_mesh(ob.data)
         if method == "blender":
             bpy.ops.uv.unwrap(method="CONFORMAL", correct_aspect=True)
         else:
             assert unwrap(correct_aspect=True) == {"FINISHED"}
         object_mode()
-        uv, cv = corner_uvs(ob), corner_verts(ob)
+        uv, cv = corner_uvs(ob).astype(np.float64), corner_verts(ob)
+        rows = np.repeat(np.isin(np.arange(16), list(selected)), 4)
         per_vertex = np.zeros((len(V), 2))
-        per_vertex[cv] = uv
-        assert np.abs(per_vertex[cv] - uv).max() < 1e-6  # one UV per vertex: no tear
-        ratios[method] = np.ptp(uv[:, 0]) / np.ptp(uv[:, 1])
-    assert ratios["isoparam"] == pytest.approx(1.0 if active == 12 else 0.5, rel=1e-4)
-    assert ratios["isoparam"] == pytest.approx(ratios["blender"], rel=1e-4)
+        per_vertex[cv[rows]] = uv[rows]
+        assert np.abs(per_vertex[cv[rows]] - uv[rows]).max() < 1e-6  # one UV per vertex: no tear
+        first = 4 * selected[0]
+        ratios[method] = squeeze(uv[first : first + 4], V[cv[first : first + 4], :2])
+    assert ratios["isoparam"] == pytest.approx(2.0 if active < 8 else 1.0, rel=1e-3)
+    assert ratios["isoparam"] == pytest.approx(ratios["blender"], rel=1e-3)
 
 
 @pytest.mark.parametrize("primitive", ["cube", "cylinder", "cone"])
