@@ -105,9 +105,8 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, mar
         fitted into [0, 1] unless ``world_scale``.
     world_scale : bool
         Keep mesh units (1 UV unit = 1 world unit) instead of fitting into [0, 1].
-    aspect : (t,) float64, optional
-        Image width / height under each triangle: u is divided by it, so texels come
-        out square.
+    aspect : float, optional
+        Image width / height: u is divided by it, so texels come out square.
     margin : float
         Space kept around the layout when it is fitted into [0, 1], as Blender's
         ``uv.pack_islands`` keeps it.
@@ -120,7 +119,7 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, mar
     """
     uv = np.array(uv, dtype=np.float64, copy=True)
     if aspect is not None:
-        uv[..., 0] /= aspect[:, None]
+        uv[..., 0] /= aspect
     if not world_scale and not in_place:
         uv = _into_unit_square(uv, margin)
     w_lock = locked.astype(np.float64)

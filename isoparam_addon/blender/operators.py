@@ -38,7 +38,7 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
     )
     correct_aspect: BoolProperty(
         name="Correct Aspect",
-        description="Account for the aspect ratio of the active image texture of each face's material",
+        description="Account for the aspect ratio of the active image texture of the active face's material",
         default=True,
     )
     world_scale: BoolProperty(

@@ -202,8 +202,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             op.report({"ERROR"}, f"Isometric Unwrap gave non-finite UVs on '{sel.name}'. Nothing was changed")
             return None
         wm.progress_update(len(objects) + k)
-        ratio = _aspect(ob, sel) if opts.correct_aspect else None
-        aspect = None if ratio is None else np.full(len(sel.tri_poly), ratio)
+        aspect = _aspect(ob, sel) if opts.correct_aspect else None
         uv, held = layout.place(
             res.corner_uv,
             res.face_island,
