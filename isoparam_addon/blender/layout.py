@@ -77,12 +77,17 @@ def _into_unit_square(uv, margin):
     it that Blender's ``pack_islands`` leaves one island (margin_method SCALED, measured
     on bpy 5.0.1: a gap of margin * sqrt(bounding box area) / 10, so any margin in 0..1
     leaves room)."""
-    lo = uv.reshape(-1, 2).min(axis=0)
-    box = uv.reshape(-1, 2).max(axis=0) - lo
+    u, v = uv[..., 0], uv[..., 1]  # column by column: ``min(axis=0)`` of (k, 2) rows is 30x slower
+    lo = np.array([u.min(), v.min()])
+    box = np.array([u.max(), v.max()]) - lo
     size = max(float(box.max()), 1e-300)
     side = np.sqrt(box[0] * box[1]) / size  # of the box's area once the layout is 1 wide
     room = 1.0 / (1.0 + 0.2 * margin * side)
-    return 0.1 * margin * side * room + (uv - lo) * (room / size)
+    out = np.empty_like(uv)
+    for c in range(2):  # the two UV columns
+        np.multiply(uv[..., c] - lo[c], room / size, out=out[..., c])
+        out[..., c] += 0.1 * margin * side * room
+    return out
 
 
 def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, margin=0.0):

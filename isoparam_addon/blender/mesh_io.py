@@ -12,7 +12,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Selection", "read_selection", "write_uvs", "uv_layer_name", "polygon_of_corner", "write_face_colours"]
+__all__ = [
+    "Selection",
+    "read_selection",
+    "triangles",
+    "write_uvs",
+    "uv_layer_name",
+    "polygon_of_corner",
+    "write_face_colours",
+]
 
 
 def _attribute(mesh, names, width: int, dtype, length: int):
@@ -136,20 +144,12 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
             picked = _attribute(me, [".uv_select_vert", f".vs.{uv_name}"], 1, bool, nl)
             if picked is not None:
                 locked |= ~picked
-    me.calc_loop_triangles()
-    nt = len(me.loop_triangles)
-    tri_loops = np.empty(3 * nt, dtype=np.int32)
-    me.loop_triangles.foreach_get("loops", tri_loops)
-    tri_loops = tri_loops.reshape(nt, 3).astype(np.int64)
-    tri_poly = np.empty(nt, dtype=np.int32)
-    me.loop_triangles.foreach_get("polygon_index", tri_poly)
+    tri_loops, tri_poly, loop_total = triangles(me)
     keep = chosen[tri_poly]
-    tri_loops, tri_poly = tri_loops[keep], tri_poly[keep].astype(np.int64)
+    tri_loops, tri_poly = tri_loops[keep], tri_poly[keep]
     tri_verts = corner_vert[tri_loops]
     # a triangle side is a diagonal when its corners are not neighbours around the face
-    loop_total = np.empty(nf, dtype=np.int32)
-    me.polygons.foreach_get("loop_total", loop_total)
-    k = loop_total[tri_poly][:, None].astype(np.int64)
+    k = loop_total[tri_poly][:, None]
     step = (tri_loops[:, [1, 2, 0]] - tri_loops) % k
     inner = (step != 1) & (step != k - 1)
     used = np.zeros(nv, dtype=bool)
@@ -171,6 +171,30 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
         face_material=(np.zeros(len(tri_poly), np.int64) if material is None else material[tri_poly].astype(np.int64)),
         uv_name=uv_name,
     )
+
+
+def triangles(me) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Blender's triangulation of the mesh (object mode): the corners of every triangle
+    (t, 3) int64, the face of every triangle (t,) int64, and the corner count of every
+    face (f,) int64.
+
+    ``loop_triangles.foreach_get`` goes through RNA item by item (at 100k faces: corners
+    42 ms, faces 25 ms, ``polygons`` loop totals 20 ms, against 0.06 ms for the
+    ``loop_triangle_polygons`` array). A face of k corners has k - 2 triangles, which
+    gives the counts; an all-triangle mesh needs nothing else, since each face is its
+    own triangle with its corners in order. Quads and n-gons read Blender's corners.
+    """
+    me.calc_loop_triangles()
+    nt, nf = len(me.loop_triangles), len(me.polygons)
+    tri_poly = np.empty(nt, dtype=np.int32)
+    me.loop_triangle_polygons.foreach_get("value", tri_poly)
+    tri_poly = tri_poly.astype(np.int64)
+    loop_total = np.bincount(tri_poly, minlength=nf) + 2
+    if nt == nf:  # every face a triangle: corners 3f, 3f + 1, 3f + 2
+        return 3 * tri_poly[:, None] + np.arange(3), tri_poly, loop_total
+    tri_loops = np.empty(3 * nt, dtype=np.int32)
+    me.loop_triangles.foreach_get("loops", tri_loops)
+    return tri_loops.reshape(nt, 3).astype(np.int64), tri_poly, loop_total
 
 
 def write_uvs(mesh, uv_name: str, uv: np.ndarray) -> None:

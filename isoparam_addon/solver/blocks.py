@@ -54,8 +54,9 @@ class Islands:
         flat = x.reshape(len(x), -1)
         out = np.zeros((self.n, flat.shape[1]))
         out += self.small_indicator @ flat[self.small_rows] if self.small_rows.size else 0.0
-        for i in self.large:
-            out[i] = flat[self.rows(i)].sum(axis=0)
+        for i in self.large:  # a BLAS product: ``sum(axis=0)`` of (100000, 2) rows takes 25x longer
+            r = self.rows(i)
+            out[i] = np.dot(np.ones(r.stop - r.start), flat[r])
         return out.reshape((self.n,) + x.shape[1:])
 
     def mean(self, x: np.ndarray) -> np.ndarray:

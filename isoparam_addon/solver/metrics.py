@@ -117,29 +117,38 @@ def edge_rms(V, F, uv) -> float:
 
 
 def _frames(V, F, cuv):
-    """3D face areas, and the 2x2 Jacobians of the map from each face to UV."""
+    """3D face areas, and the 2x2 Jacobians ``(a, b, c, d)`` (each (m,)) of the map from
+    each face to UV: ``J = [[a, b], [c, d]]``.
+
+    Column by column: 1-D gathers and arithmetic on (m,) arrays are several times faster
+    than on (m, 3) and (m, 2) rows (200k faces: 14 ms against 48 ms here).
+    """
     V = np.asarray(V, dtype=np.float64)
-    cols = [np.ascontiguousarray(V[:, c]) for c in range(3)]  # 1-D gathers are fast
     i0, i1, i2 = (np.ascontiguousarray(F[:, k]) for k in range(3))
-    e1 = np.stack([c[i1] - c[i0] for c in cols], axis=1)
-    e2 = np.stack([c[i2] - c[i0] for c in cols], axis=1)
-    n1 = np.sqrt((e1 * e1).sum(axis=1))
-    cx = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
-    cy = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
-    cz = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    e1, e2 = [], []
+    for c in range(3):  # x, y, z
+        col = np.ascontiguousarray(V[:, c])
+        base = col[i0]
+        e1.append(col[i1] - base)
+        e2.append(col[i2] - base)
+    n1 = np.sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2])
+    cx = e1[1] * e2[2] - e1[2] * e2[1]
+    cy = e1[2] * e2[0] - e1[0] * e2[2]
+    cz = e1[0] * e2[1] - e1[1] * e2[0]
     cross = np.sqrt(cx * cx + cy * cy + cz * cz)
     area = 0.5 * cross
     ok = (cross > 1e-14 * np.maximum(n1, 1e-300) ** 2) & (n1 > 0)
     x1 = np.where(ok, n1, 1.0)
-    x2 = np.where(ok, (e1 * e2).sum(axis=1) / x1, 0.0)
+    x2 = np.where(ok, (e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / x1, 0.0)
     y2 = np.where(ok, cross / x1, 1.0)
-    q1 = cuv[:, 1] - cuv[:, 0]
-    q2 = cuv[:, 2] - cuv[:, 0]
-    # J [x1 x2; 0 y2] = [q1 q2]
-    J = np.empty((len(F), 2, 2))
-    J[:, :, 0] = q1 / x1[:, None]
-    J[:, :, 1] = (q2 - q1 * (x2 / x1)[:, None]) / y2[:, None]
-    return area, ok, J
+    # J [x1 x2; 0 y2] = [q1 q2], q1 and q2 the UV edges from corner 0
+    r = x2 / x1
+    J = []
+    for c in range(2):  # u, v
+        base = cuv[:, 0, c]
+        q1, q2 = cuv[:, 1, c] - base, cuv[:, 2, c] - base
+        J += [q1 / x1, (q2 - q1 * r) / y2]
+    return area, ok, tuple(J)
 
 
 def singular_values(V, F, uv):
@@ -149,8 +158,7 @@ def singular_values(V, F, uv):
     faces get sigma = 1.
     """
     F = np.asarray(F, dtype=np.int64)
-    area, ok, J = _frames(V, F, corner_uvs(F, uv))
-    a, b, c, d = J[:, 0, 0], J[:, 0, 1], J[:, 1, 0], J[:, 1, 1]
+    area, ok, (a, b, c, d) = _frames(V, F, corner_uvs(F, uv))
     # closed form without cancellation: sigma = |q +- r| with q, r the conformal and
     # anti-conformal parts of J
     q = 0.5 * np.hypot(a + d, c - b)
