@@ -7,6 +7,7 @@ from hypothesis import strategies as st
 
 from isoparam_addon.solver import baselines, metrics, parametrize
 from isoparam_addon.solver import examples as ex
+from isoparam_addon.solver.refine import _max_step
 
 from .conftest import edge_length_error, procrustes_error
 
@@ -226,3 +227,24 @@ def test_pins_that_do_not_shape_an_island_do_not_stop_its_unfolding():
         assert np.abs(r.corner_uv[F == v] - 0.5).max() == 0.0
         if v != on_cut:  # (the two copies of a cut vertex are both held at the one pin)
             assert metrics.flipped(V, F, r.corner_uv) == 0
+
+
+def test_capped_step_finds_the_same_first_collapse_as_the_full_one():
+    rng = np.random.default_rng(7)
+    m = 20000
+    J = rng.standard_normal((4, m))
+    J = J[:, J[0] * J[3] - J[1] * J[2] > 1e-3]  # unfolded faces
+    dJ = rng.standard_normal(J.shape) * rng.choice([0.1, 1.0, 10.0], size=J.shape[1])
+    full = _max_step(tuple(J), tuple(dJ))
+    for limit in (0.5, 1.0 / 0.9, 3.0):
+        capped = _max_step(tuple(J), tuple(dJ), limit)
+        near = full <= limit
+        assert 0.05 < near.mean() < 0.95  # both kinds of face are exercised
+        np.testing.assert_array_equal(capped[near], full[near])
+        assert np.all((capped[~near] > limit) | np.isinf(capped[~near]))
+        # and the roots are roots: the determinant changes sign there
+        t = capped[near]
+        Jt = J[:, near] + t * dJ[:, near]
+        det = Jt[0] * Jt[3] - Jt[1] * Jt[2]
+        scale = np.abs(J[:, near]).max(axis=0) ** 2 + (t * np.abs(dJ[:, near]).max(axis=0)) ** 2
+        assert np.all(np.abs(det) < 1e-9 * scale)

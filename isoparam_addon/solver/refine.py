@@ -120,14 +120,27 @@ def _energy_terms(a, b, c, d, area):
     return e, (k1 * a + k2 * d, k1 * b - k2 * c, k1 * c - k2 * b, k1 * d + k2 * a)
 
 
-def _max_step(J, dJ):
-    """Per face, the largest t in (0, inf] with det(J + t dJ) > 0 (det J > 0): (m,)."""
+def _max_step(J, dJ, limit: float = np.inf):
+    """Per face, the first t in (0, ``limit``] with det(J + t dJ) = 0 (det J > 0), inf
+    where there is none: (m,).
+
+    det(J + t dJ) = qa t^2 + qb t + qc with qc = det J > 0. With a finite ``limit`` only
+    the faces whose determinant can reach zero by then get their roots computed: those
+    with det <= 0 at ``limit``, or with a minimum inside (0, limit) that is not positive
+    (a few percent of the faces in a descent).
+    """
     a, b, c, d = J
     da, db, dc, dd = dJ
     qa = da * dd - db * dc
     qb = a * dd + d * da - b * dc - c * db
     qc = a * d - b * c
     t = np.full(len(a), np.inf)
+    if np.isfinite(limit):
+        with np.errstate(invalid="ignore"):
+            dips = (qa > 0) & (qb < 0) & (qb > -2.0 * limit * qa) & (qb * qb >= 4.0 * qa * qc)
+            rows = np.flatnonzero(((qa * limit + qb) * limit + qc <= 0) | dips)
+        t[rows] = _max_step((a[rows], b[rows], c[rows], d[rows]), tuple(x[rows] for x in dJ))
+        return t
     lin = np.abs(qa) < 1e-30 * np.maximum(np.abs(qb), 1e-300)
     with np.errstate(divide="ignore", invalid="ignore"):
         tl = -qc / qb
@@ -256,6 +269,7 @@ class Proxy:
 
     frames: FaceFrames
     H: sp.csr_matrix
+    whisper: np.ndarray  # (n,): H = 2 (K + diag(whisper))
     pinned: np.ndarray
     perm: np.ndarray
     lu: object
@@ -274,10 +288,11 @@ def quadratic_proxy(X, faces, islands: Islands, pinned=None, order=None) -> Prox
     size = np.maximum(islands.size, 1)
     reg = 1e-9 * np.bincount(islands.label, K.diagonal(), minlength=islands.n) / size
     mean_mass = np.bincount(islands.label, mass, minlength=islands.n) / size
-    H = 2.0 * (K + sp.diags((reg / np.maximum(mean_mass, 1e-300))[islands.label] * mass))
+    whisper = (reg / np.maximum(mean_mass, 1e-300))[islands.label] * mass
+    H = 2.0 * (K + sp.diags(whisper))
     perm = order[~pinned[order]] if order is not None else np.flatnonzero(~pinned)
     lu = splu(H[perm][:, perm].tocsc(), permc_spec="NATURAL") if len(perm) else None
-    return Proxy(frames=frames, H=H.tocsr(), pinned=pinned, perm=perm, lu=lu)
+    return Proxy(frames=frames, H=H.tocsr(), whisper=whisper, pinned=pinned, perm=perm, lu=lu)
 
 
 def refine(
@@ -343,6 +358,7 @@ def refine(
     active = ~stuck & (free_count > 0)
     live_face = active[each.face]
     live_area = float(area[live_face].sum())
+    every_face_live = bool(live_face.all())
     fixed = np.flatnonzero(pinned)
 
     def energies(J):
@@ -350,19 +366,25 @@ def refine(
         per-face derivatives dE/dJ, which :func:`gradient` turns into dE/duv."""
         with np.errstate(divide="ignore", invalid="ignore"):
             e, G = _energy_terms(*J, area)
-        return each.face_sum(np.where(live_face, e, 0.0)), G
+        return each.face_sum(e if every_face_live else np.where(live_face, e, 0.0)), G
 
     def gradient(G):
-        G = [np.where(live_face, Gk, 0.0) for Gk in G]
+        if not every_face_live:
+            G = [np.where(live_face, Gk, 0.0) for Gk in G]
         g = np.stack([frames.DxT @ G[0] + frames.DyT @ G[1], frames.DxT @ G[2] + frames.DyT @ G[3]], axis=1)
         g[pinned] = 0.0
         return g
 
+    # row gathers through np.take (fancy indexing of (n, 2) rows is 8x slower); pinned
+    # vertices read the zero row appended to the solution
+    slot = np.full(n, len(perm), dtype=np.int64)
+    slot[perm] = np.arange(len(perm))
+
     def precondition(g):  # H^{-1} g; H is block diagonal, so islands stay independent
-        p = np.zeros_like(g)
-        if lu is not None:
-            p[perm] = solve_columns(lu, g[perm])
-        return p
+        if lu is None:
+            return np.zeros_like(g)
+        y = solve_columns(lu, np.take(g, perm, axis=0))
+        return np.take(np.vstack([y, np.zeros((1, y.shape[1]))]), slot, axis=0)
 
     J = frames.jacobians(x)
     E, G = energies(J)
@@ -371,8 +393,14 @@ def refine(
     stepping = active.copy()
     for _ in range(arap):  # local/global steps
         a, b, c, d = J
-        th = np.arctan2(c - b, a + d)  # the rotation closest to each Jacobian
-        cs, sn = area * np.cos(th), area * np.sin(th)
+        # the rotation closest to each Jacobian: (cos, sin) along (a + d, c - b), no
+        # trigonometry (arctan2, cos and sin took 11 ms per step at 200k faces)
+        cs, sn = a + d, c - b
+        h = np.hypot(cs, sn)
+        flat = h == 0  # arctan2(0, 0) = 0: the identity
+        h = area / np.where(flat, 1.0, h)
+        cs = np.where(flat, area, cs * h)
+        sn *= h
         rhs = 2.0 * np.stack([frames.DxT @ cs - frames.DyT @ sn, frames.DxT @ sn + frames.DyT @ cs], axis=1)
         if fixed.size:
             rhs -= H[:, fixed] @ x[fixed]
@@ -414,7 +442,7 @@ def refine(
             slope = each.dot(g, p)
         p = np.where(each.rows(active), p, 0.0)
         dJ = frames.jacobians(p)
-        t = np.where(active, np.minimum(1.0, 0.9 * each.face_min(_max_step(J, dJ))), 0.0)
+        t = np.where(active, np.minimum(1.0, 0.9 * each.face_min(_max_step(J, dJ, 1.0 / 0.9))), 0.0)
         searching = active.copy()
         while searching.any():  # backtracking (Armijo), island by island
             Jt = tuple(j + each.faces_of(t) * dj for j, dj in zip(J, dJ))
@@ -441,8 +469,11 @@ def refine(
             rho = np.where(good, 1.0 / np.where(good, sy, 1.0), 0.0)
             memory.append((s_k, y_k, rho))
             memory = memory[-_MEMORY:]
-            # scale the proxy to the curvature seen along the step
-            gamma = np.where(good, each.dot(s_k, H @ s_k) / np.where(good, sy, 1.0), gamma)
+            # scale the proxy to the curvature seen along the step, s^T H s / s^T y, with
+            # s^T K s = t^2 sum_f A_f |dJ_f|^2 from the Jacobians at hand (no product with H)
+            sKs = t * t * each.face_sum(area * (dJ[0] * dJ[0] + dJ[1] * dJ[1] + dJ[2] * dJ[2] + dJ[3] * dJ[3]))
+            sHs = 2.0 * (sKs + each.dot(s_k, s_k * proxy.whisper[:, None]))
+            gamma = np.where(good, sHs / np.where(good, sy, 1.0), gamma)
         active &= ~(E - Et < tol * Et)
         x, J, E, g = x_new, Jt, Et, g_new
         out.energy.append(float(E.sum()) / live_area)
