@@ -60,7 +60,12 @@ def _least_squares(rows: np.ndarray, target: np.ndarray, label: np.ndarray, n: i
     the normal equations, 1e-10 through this QR). A column that is dependent on the
     previous ones inside its group (a collinear island) gets coefficient 0.
     """
-    dot = lambda x, y: np.bincount(label, x * y, minlength=n)  # noqa: E731
+    if n == 1:  # one group: BLAS dots and scalars (8x faster than bincount at 300k rows)
+        dot = lambda x, y: np.array([np.dot(x, y)])  # noqa: E731
+        spread = lambda c: c[0]  # noqa: E731
+    else:
+        dot = lambda x, y: np.bincount(label, x * y, minlength=n)  # noqa: E731
+        spread = lambda c: c[label]  # noqa: E731
     R = np.zeros((n, 3, 3))
     Q = []
     for j in range(3):
@@ -70,11 +75,11 @@ def _least_squares(rows: np.ndarray, target: np.ndarray, label: np.ndarray, n: i
             for i, qi in enumerate(Q):
                 c = dot(qi, q)
                 R[:, i, j] += c
-                q -= c[label] * qi
+                q -= spread(c) * qi
         norm = np.sqrt(dot(q, q))
         ok = norm > 1e-12 * start
         R[:, j, j] = np.where(ok, norm, 0.0)
-        q *= np.where(ok, 1.0 / np.where(ok, norm, 1.0), 0.0)[label]
+        q *= spread(np.where(ok, 1.0 / np.where(ok, norm, 1.0), 0.0))
         Q.append(q)
     qt = np.stack([dot(q, target) for q in Q], axis=1)
     coef = np.zeros((n, 3))
