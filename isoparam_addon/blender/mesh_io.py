@@ -149,9 +149,12 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
     tri_loops, tri_poly = tri_loops[keep], tri_poly[keep]
     tri_verts = corner_vert[tri_loops]
     # a triangle side is a diagonal when its corners are not neighbours around the face
-    k = loop_total[tri_poly][:, None]
-    step = (tri_loops[:, [1, 2, 0]] - tri_loops) % k
-    inner = (step != 1) & (step != k - 1)
+    if (loop_total == 3).all():  # triangles only: no diagonals
+        inner = np.zeros(tri_loops.shape, dtype=bool)
+    else:
+        k = loop_total[tri_poly][:, None]
+        step = (tri_loops[:, [1, 2, 0]] - tri_loops) % k
+        inner = (step != 1) & (step != k - 1)
     used = np.zeros(nv, dtype=bool)
     used[tri_verts.ravel()] = True
     vert_ids = np.flatnonzero(used)

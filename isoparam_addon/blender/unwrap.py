@@ -179,7 +179,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
     solved = []
     for k, (ob, sel) in enumerate(selections):
         locked = sel.locked[sel.tri_loops]
-        old = sel.uv[sel.tri_loops].astype(np.float64)
+        old = np.take(sel.uv, sel.tri_loops, axis=0).astype(np.float64)
         try:
             res = parametrize(
                 sel.V,
@@ -223,7 +223,8 @@ def _write(s: _Solved) -> None:
     me = s.obj.data
     name = mesh_io.uv_layer_name(me)
     uv = s.sel.uv.copy() if s.sel.uv_name == name else np.zeros((len(me.loops), 2), np.float32)
-    uv[s.sel.tri_loops] = s.corner_uv
+    for c in range(2):  # column by column: 1-D scatters are 3x faster than row scatters
+        uv[:, c][s.sel.tri_loops] = s.corner_uv[..., c]
     mesh_io.write_uvs(me, name, uv)
 
 

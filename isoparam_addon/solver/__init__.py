@@ -239,6 +239,18 @@ def _proxy(X, faces, islands, pinned, plan):
     return quadratic_proxy(X, faces, islands, pinned, np.concatenate([plan.free_order, plan.pins.ravel()]))
 
 
+def _edge_lengths(X: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """3D length of every edge (e,), from 1-D column gathers (row gathers of (n, 3)
+    arrays take 5x longer)."""
+    a, b = np.ascontiguousarray(edges[:, 0]), np.ascontiguousarray(edges[:, 1])
+    total = np.zeros(len(edges))
+    for c in range(3):  # x, y, z
+        col = np.ascontiguousarray(X[:, c])
+        d = col[a] - col[b]
+        total += d * d
+    return np.sqrt(total)
+
+
 def _is_large(vertices) -> bool:
     try:
         return len(vertices) >= 200_000
@@ -286,7 +298,7 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
         proxy = proxy.result() if refine else None
     t_wait = time.perf_counter()  # past t4 only if the proxy outlasted Step 3
     edges = he.edge_vertices
-    length = np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
+    length = _edge_lengths(X, edges)
     Y, _, clipped = fit_rotation_scale(emb.coords, edges, length, islands.label[edges[:, 0]], islands)
     Y, flipped = orient(Y, faces_i, topo.face_island, islands)
     t5 = time.perf_counter()
@@ -318,12 +330,12 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
     t6 = time.perf_counter()
     uv_i = place(Y, islands, pack=pack, margin=margin, fixed=held) * unit
     uv_split = uv_i
-    corner_uv = uv_split[topo.corner_vertex]
+    corner_uv = np.take(uv_split, topo.corner_vertex, axis=0)  # np.take: row gathers 5x faster
     uv = np.zeros((len(V), 2))
     first = np.full(len(V), len(uv_split), dtype=np.int64)
     np.minimum.at(first, topo.vertex_of, np.arange(len(uv_split)))
     used = first < len(uv_split)
-    uv[used] = uv_split[first[used]]
+    uv[used] = np.take(uv_split, first[used], axis=0)
     t.update(topology=t1 - t0, local=t2 - t1, weights=t3 - t2, embedding=t4 - t3, align=t5 - t_wait)
     t["refine"] = t6 - t5 + (t_wait - t4)
     t.update({f"embedding.{k}": v for k, v in emb.timings.items()})
