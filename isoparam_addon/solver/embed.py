@@ -16,12 +16,12 @@ Why not the obvious routes (measured on this machine, see the README):
 
 What we do instead
 ------------------
-1. Pin three far-apart vertices P per island and factor only the square matrix
-   ``A = L_FF`` (1-ring sparsity, conditioning of L, nested-dissection order). The pinned
-   rows ``E = L_PF`` enter through the Woodbury identity
-   ``M_FF^{-1} = A^{-1} (I - G^T (I + G G^T)^{-1} G) A^{-T}`` with ``G = E A^{-1}``,
-   so applying ``M_FF^{-1}`` costs one transposed and one plain triangular solve and a
-   3x3 system per island, never forming M.
+1. Pin three far-apart vertices P per island and factor one square matrix of the
+   sparsity of L, ``A = [L_F  B]``: every row, the free columns, and three random
+   border columns per island (1-ring sparsity, conditioning of L, nested-dissection
+   order; see :class:`_PinnedLeastSquares`). Applying ``M_FF^{-1}`` then costs one
+   transposed and one plain triangular solve and a 3x3 system per island, never
+   forming M.
 2. The three *pinned least-squares* functions ``h_k = argmin ||L x||`` with ``x_P = e_k``
    span ``{1, u, v}`` exactly on a developable island. In general they are the
    M-orthogonal complement of the free space, so ``M^+ b = H c + [M_FF^{-1} b_F; 0]`` for
@@ -167,13 +167,19 @@ class _PinnedLeastSquares:
     L is fine). So we keep every row and border ``L_F`` with three seeded random
     columns per island, ``A = [L_F  B]`` (n x n, nonsingular for almost every B, with the
     sparsity of L plus three dense columns that the elimination order puts last).
-    With ``S = (A^T A)^{-1} = A^{-1} A^{-T}`` and ``M_FF = L_F^T L_F`` the leading block of
-    ``A^T A``, the block-inverse identity gives
+    To apply ``M_FF^{-1} = (L_F^T L_F)^{-1}`` to b without ever forming M (whose
+    conditioning is cond(L)^2): ``y = A^{-T} [b; 0]`` solves ``L_F^T y = b`` (and
+    ``B^T y = 0``). The solutions of ``L_F^T y = b`` differ by the left null space of
+    ``L_F``, three vectors per island spanned by ``N = A^{-T} E_B`` (E_B: the border
+    columns of the identity), and the one orthogonal to N is in the range of ``L_F``:
+    ``y - N (N^T N)^{-1} N^T y = L_F w`` with ``L_F^T L_F w = b``. So
 
-        M_FF^{-1} = S_FF - S_FB S_BB^{-1} S_BF,
+        [M_FF^{-1} b; 0] = A^{-1} (y - N (N^T N)^{-1} N^T y),
 
-    so one transposed and one plain triangular solve, plus a 3x3 system per island,
-    apply ``M_FF^{-1}`` without ever forming M (whose conditioning is cond(L)^2).
+    one transposed and one plain triangular solve and a 3x3 system per island. (The
+    same as the block-inverse identity ``M_FF^{-1} = S_FF - S_FB S_BB^{-1} S_BF`` for
+    ``S = (A^T A)^{-1}``, since ``S_BB = N^T N``, without its three extra solves for
+    ``S E_B``.)
     """
 
     def __init__(self, L: sp.csr_matrix, islands: Islands, plan: Plan):
@@ -204,18 +210,16 @@ class _PinnedLeastSquares:
         self.timings = {"ordering": plan.seconds, "factorization": t2 - t1}
         e3 = np.zeros((n, 3))
         e3[nf + np.arange(3 * nI), np.tile(np.arange(3), nI)] = 1.0  # B columns, k-th of each island
-        self.Tz = solve_columns(self.lu, e3, trans="T")  # A^{-T} E_B
+        self.N = solve_columns(self.lu, e3, trans="T")  # A^{-T} E_B: the left null space of L_F
+        self.NN = self._gram_rows(self.N, self.N)
         # the pinned least-squares basis: h_k = argmin ||L x|| with x = e_k on the pins.
         # Its free part is -M_FF^{-1} L_F^T r_k with r_k = L[:, P] e_k, and since
-        # [L_F^T r; 0] = A^T r - [0; B^T r], the first solve is r - A^{-T} E_B (B^T r).
+        # [L_F^T r; 0] = A^T r - [0; B^T r], y = A^{-T} [L_F^T r; 0] = r - N (B^T r).
         H = np.zeros((n, 3))
         H[pins, np.arange(3)] = 1.0
         r = self.L @ H  # L[:, P] e_k for every island at once, (n, 3)
-        rhs = self._to_rows(r) - self._per_island(self.Tz, islands.gram(self.B, r))
-        both = solve_columns(self.lu, np.hstack([self.Tz, rhs]))  # one call for S E_B and the basis
-        self.Z = both[:, :3]  # S E_B
-        self.Zbb = self.Z[nf:].reshape(nI, 3, 3)  # S_BB per island
-        self.H = H - self._from_rows(self._finish(both[:, 3:]))
+        y = self._to_rows(r) - self._per_island(self.N, islands.gram(self.B, r))
+        self.H = H - self._from_rows(self._solve_range(y))
 
     # Row gathers go through np.take: numpy's fancy row indexing of an (n, p) array is
     # 3-8x slower on a million rows (measured here).
@@ -233,19 +237,30 @@ class _PinnedLeastSquares:
             return np.dot(cols, coef[0])
         return np.einsum("rk,rkp->rp", cols, np.take(coef, self.label, axis=0))
 
-    def _finish(self, Xs: np.ndarray) -> np.ndarray:
-        """From ``Xs = S [y; 0]`` to ``[M_FF^{-1} y; 0]`` (row order, pin rows zero)."""
-        nI, p = self.islands.n, Xs.shape[1]
-        c = np.linalg.solve(self.Zbb, Xs[self.nf :].reshape(nI, 3, p))
-        out = Xs - self._per_island(self.Z, c)
-        out[self.nf :] = 0.0
+    def _gram_rows(self, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+        """Per-island ``P^T Q`` over rows in row order: (n, p), (n, q) -> (n_islands, p, q)."""
+        if self.islands.n == 1:
+            return np.dot(P.T, Q)[None]
+        nI = self.islands.n
+        out = np.empty((nI, P.shape[1], Q.shape[1]))
+        for i in range(P.shape[1]):  # a few columns
+            for j in range(Q.shape[1]):
+                out[:, i, j] = np.bincount(self.label, P[:, i] * Q[:, j], minlength=nI)
+        return out
+
+    def _solve_range(self, y: np.ndarray) -> np.ndarray:
+        """``[w; 0]`` (row order) with ``L_F w`` the part of y (row order) orthogonal to
+        the left null space N of ``L_F``, i.e. ``[M_FF^{-1} b; 0]`` for y = A^{-T} [b; 0]."""
+        c = np.linalg.solve(self.NN, self._gram_rows(self.N, y))
+        out = solve_columns(self.lu, y - self._per_island(self.N, c))
+        out[self.nf :] = 0.0  # the border part is zero up to rounding
         return out
 
     def solve_mff(self, b: np.ndarray) -> np.ndarray:
         """``[M_FF^{-1} b_F; 0]`` for b (n, p), vertex order."""
         rhs = self._to_rows(b)
         rhs[self.nf :] = 0.0
-        return self._from_rows(self._finish(solve_columns(self.lu, solve_columns(self.lu, rhs, trans="T"))))
+        return self._from_rows(self._solve_range(solve_columns(self.lu, rhs, trans="T")))
 
 
 _LINEAR = 0.1  # largest last step from which the convergence rate is extrapolated
