@@ -22,8 +22,8 @@ ATTRIBUTE = "isoparam_stretch"
 def _distortion(V, F, corner_uv):
     """(distortion (t,), 3D area (t,), measurable (t,) bool): one singular-value pass."""
     sig, area, ok = metrics.singular_values(V, F, corner_uv)
-    q1, q2 = corner_uv[:, 1] - corner_uv[:, 0], corner_uv[:, 2] - corner_uv[:, 0]
-    a2 = 0.5 * np.abs(q1[:, 0] * q2[:, 1] - q1[:, 1] * q2[:, 0]).sum()
+    u, v = corner_uv[..., 0], corner_uv[..., 1]  # 1-D columns: (t, 2) rows are slower
+    a2 = 0.5 * np.abs((u[:, 1] - u[:, 0]) * (v[:, 2] - v[:, 0]) - (v[:, 1] - v[:, 0]) * (u[:, 2] - u[:, 0])).sum()
     k = np.sqrt(area.sum() / a2) if a2 > 0 else 1.0
     sig = sig * k
     with np.errstate(divide="ignore"):
@@ -50,10 +50,10 @@ def measure(V, F, corner_uv) -> tuple[np.ndarray, Summary]:
     """Distortion of every triangle, (t,) (inf for a collapsed UV triangle), and its
     summary, from one singular-value pass."""
     d, area, ok = _distortion(V, F, corner_uv)
-    w = area * ok
     finite = np.isfinite(d)
-    total = float(w[finite].sum())
-    return d, Summary(float(d.max()), float((d[finite] * w[finite]).sum() / max(total, 1e-300)), total)
+    w = np.where(finite & ok, area, 0.0)
+    total = float(w.sum())
+    return d, Summary(float(d.max()), float(np.dot(np.where(finite, d, 0.0), w)) / max(total, 1e-300), total)
 
 
 def summary(V, F, corner_uv) -> Summary:
