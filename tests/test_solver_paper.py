@@ -194,3 +194,37 @@ def test_pinned_least_squares_match_dense_algebra(n_islands):
         h = e.copy()
         h[free] = -np.linalg.solve(M_FF, Ld[:, free].T @ (Ld @ e))
         assert np.abs(pls.H[:, k] - h).max() < 1e-9
+
+
+@pytest.mark.parametrize("grid", [15, 35])  # the small-island and the large-island (SVD) Ritz paths
+def test_a_null_space_of_more_than_two_dimensions_gives_a_null_pair_and_stops(grid):
+    # L reproduces 1, x, y and z of a curved mesh (3D affine weights over the 2-ring), so
+    # every pair in span(x, y, z) is a lowest eigenvector pair of M. Two Smart UV islands
+    # of a subdivided Suzanne have such a null space. Step 3 must return a pair inside it
+    # and stop, not wander inside it until max_iter (and the bordered matrix is singular
+    # to rounding there, so a careless solve also returns vectors outside it).
+    import scipy.sparse as sp
+
+    from isoparam_addon.solver.blocks import Islands
+    from isoparam_addon.solver.embed import spectral_embedding
+
+    V, F = ex.peaks(grid)
+    n = len(V)
+    e = unique_edges(F)
+    A = sp.csr_matrix((np.ones(2 * len(e)), (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])), shape=(n, n))
+    A2 = (A @ A + A).tocsr()
+    rows, cols, vals = [], [], []
+    for i in range(n):  # building a test matrix
+        nb = A2.indices[A2.indptr[i] : A2.indptr[i + 1]]
+        nb = nb[nb != i]
+        w = np.linalg.lstsq(np.vstack([np.ones(len(nb)), V[nb].T]), np.r_[1.0, V[i]], rcond=None)[0]
+        rows += [i] * len(nb)
+        cols += list(nb)
+        vals += list(w)
+    L = (sp.identity(n) - sp.csr_matrix((vals, (rows, cols)), shape=(n, n))).tocsr()
+    assert np.abs(L @ np.c_[np.ones(n), V]).max() < 1e-12
+    emb = spectral_embedding(L, V, Islands(np.zeros(n, dtype=np.int64), 1))
+    assert emb.converged.all() and emb.iterations <= 3
+    Y = emb.coords / np.linalg.norm(emb.coords, axis=0)
+    assert np.abs(L @ Y).max() < 1e-10
+    assert np.linalg.svd(Y, compute_uv=False).min() > 0.5  # two independent vectors

@@ -265,6 +265,7 @@ class _PinnedLeastSquares:
 
 _LINEAR = 0.1  # largest last step from which the convergence rate is extrapolated
 _REMAINDER = 1e-8  # smallest kept part of a column outside the previous blocks (relative)
+_NULL = 1e-24  # a Ritz value ||L y||^2 (||y|| = 1) this small is rounding: y is a null vector of L
 
 
 def _basis(blocks, islands: Islands, drop: float = 1e-10) -> np.ndarray:
@@ -382,7 +383,13 @@ def spectral_embedding(
         # preconditioned residual with the exact inverse on the free block
         R = L.T @ LY - Y * np.where(np.isfinite(mu), mu, 0.0)[islands.label, : Y.shape[1]]
         W = pls.solve_mff(R)
-        Y_new, LY_new, mu_new = _ritz(L, _basis([Y, H, W, Y_prev], islands), islands, block)
+        Y_new, LY_new, mu_new = _ritz(L, _basis([Y, H, W, Y_prev], islands), islands, block + 1)
+        # a null space of more than two non-constant dimensions (measured: two Smart UV
+        # islands of a subdivided Suzanne, four zero singular values of L each) makes the
+        # pair ambiguous; the iteration would wander inside it to max_iter. The Ritz values
+        # bound the eigenvalues from above, so a third one at rounding level proves it.
+        ambiguous = np.all(mu_new <= _NULL, axis=1)
+        Y_new, LY_new, mu_new = Y_new[:, :block], LY_new[:, :block], mu_new[:, :block]
         Y_prev = Y
         cross = islands.gram(Y[:, :2], Y_new[:, :2])
         moved = Y_new[:, :2] - islands.apply(Y[:, :2], cross)
@@ -400,7 +407,7 @@ def spectral_embedding(
         Y = np.where(keep_old, Y, Y_new)
         LY = np.where(keep_old, LY, LY_new)
         mu[live] = mu_new[live]
-        done |= (step < tol) | (predicted < tol)
+        done |= (step < tol) | (predicted < tol) | ambiguous
         if done.all():
             break
     t2 = time.perf_counter()
