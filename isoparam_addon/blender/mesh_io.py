@@ -185,15 +185,17 @@ def triangles(me) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     42 ms, faces 25 ms, ``polygons`` loop totals 20 ms, against 0.06 ms for the
     ``loop_triangle_polygons`` array). A face of k corners has k - 2 triangles, which
     gives the counts; an all-triangle mesh needs nothing else, since each face is its
-    own triangle with its corners in order. Quads and n-gons read Blender's corners.
+    own triangle with its corners in order. Quads and n-gons read Blender's corners (as
+    does a mesh with a face of two corners, which only an unvalidated import makes).
     """
     me.calc_loop_triangles()
     nt, nf = len(me.loop_triangles), len(me.polygons)
     tri_poly = np.empty(nt, dtype=np.int32)
     me.loop_triangle_polygons.foreach_get("value", tri_poly)
     tri_poly = tri_poly.astype(np.int64)
-    loop_total = np.bincount(tri_poly, minlength=nf) + 2
-    if nt == nf:  # every face a triangle: corners 3f, 3f + 1, 3f + 2
+    count = np.bincount(tri_poly, minlength=nf)
+    loop_total = count + 2  # (a face of fewer than 3 corners has no triangle and is never read)
+    if nt == nf and (count == 1).all():  # every face a triangle: corners 3f, 3f + 1, 3f + 2
         return 3 * tri_poly[:, None] + np.arange(3), tri_poly, loop_total
     tri_loops = np.empty(3 * nt, dtype=np.int32)
     me.loop_triangles.foreach_get("loops", tri_loops)
