@@ -86,18 +86,25 @@ def _object_mode(context):
     ``object.mode_set(mode="EDIT")`` enters every *selected* mesh: an object in edit
     mode but deselected would be left out, a selected one that was not in edit mode
     would be pulled in, unless the selection is set to the edit set around the call.
+    Hidden or unselectable objects cannot be selected, so they are shown and made
+    selectable for the call: an object hidden while in edit mode (which
+    ``context.objects_in_mode`` leaves out, so it is not unwrapped, as with
+    ``uv.unwrap``) stays in edit mode, hidden.
     """
-    in_mode = list(context.objects_in_mode)
     layer = context.view_layer
+    in_mode = [ob for ob in layer.objects if ob.mode == "EDIT"]  # hidden ones too
     active = layer.objects.active
     selected = list(context.selected_objects)
     bpy.ops.object.mode_set(mode="OBJECT")
     try:
         yield
     finally:
+        hidden = [(ob, ob.hide_get(), ob.hide_select) for ob in in_mode]
         for ob in selected:  # objects, not mesh elements
             ob.select_set(False)
         for ob in in_mode:
+            ob.hide_set(False)
+            ob.hide_select = False
             ob.select_set(True)
         layer.objects.active = active
         bpy.ops.object.mode_set(mode="EDIT")
@@ -105,6 +112,9 @@ def _object_mode(context):
             ob.select_set(False)
         for ob in selected:
             ob.select_set(True)
+        for ob, hide, hide_select in hidden:  # after the selection, which they would block
+            ob.hide_set(hide)
+            ob.hide_select = hide_select
 
 
 @dataclass

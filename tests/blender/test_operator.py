@@ -273,6 +273,32 @@ def test_the_edit_mode_set_and_the_selection_survive_the_operator(scene, operato
     assert not c.data.uv_layers  # never touched
 
 
+@pytest.mark.parametrize("operator", ["unwrap", "show_stretch"])
+def test_hidden_and_unselectable_objects_stay_in_edit_mode(scene, operator):
+    # an object hidden while in edit mode is not in context.objects_in_mode (not
+    # unwrapped, as with uv.unwrap), and neither it nor an unselectable one could be
+    # selected to re-enter edit mode: both used to leave edit mode
+    V, F = ex.peaks(5)
+    a, b, c = (add_mesh(name, V, F, location=(5 * k, 0, 0)) for k, name in enumerate("ABC"))
+    for ob in (a, b, c):
+        ob.data.uv_layers.new(name="UVMap")
+    before_b = corner_uvs(b).copy()
+    edit(a, b, c)
+    b.hide_set(True)
+    c.hide_select = True
+    selected = [ob.select_get() for ob in (a, b, c)]
+    run = unwrap if operator == "unwrap" else bpy.ops.uv.isometric_show_stretch
+    assert run() == {"FINISHED"}
+    assert [ob.mode for ob in (a, b, c)] == ["EDIT", "EDIT", "EDIT"]
+    assert b.hide_get() and c.hide_select and not a.hide_get()
+    assert [ob.select_get() for ob in (a, b, c)] == selected
+    assert bpy.context.view_layer.objects.active == a
+    object_mode()
+    assert np.array_equal(corner_uvs(b), before_b)  # hidden: not unwrapped
+    if operator == "unwrap":
+        assert np.ptp(corner_uvs(c), axis=0).min() > 0.05  # unselectable but visible: unwrapped
+
+
 def test_undo_restores_the_previous_uvs(scene):
     # Headless Blender records no edit-mode undo steps (measured: ed.undo() in edit mode
     # goes back to the last global step), so the step is pushed in object mode.
