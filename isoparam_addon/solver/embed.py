@@ -303,8 +303,10 @@ def _basis(blocks, islands: Islands, drop: float = 1e-10) -> np.ndarray:
 def _ritz(L, Q: np.ndarray, islands: Islands, p: int):
     """Rayleigh-Ritz for ``min ||L x|| / ||x||`` over span(Q), Q orthonormal per island.
 
-    Returns the p best vectors (orthonormal per island), L times them, and their Ritz
-    values (``inf`` where the space is still smaller than p). On a large island the Ritz
+    Returns the p best vectors (orthonormal per island), L times them, their Ritz values
+    (``inf`` where the space is still smaller than p), and per island the size below which
+    a Ritz value is rounding (``1e-13 max|K|`` for the eigensolve, ``(1e-12 sigma_max)^2``
+    for the SVD: 50-100x their error bounds). On a large island the Ritz
     vectors are the right singular vectors of ``L Q`` (QR, then a 9x9 SVD), so the tiny
     Ritz values keep their relative accuracy (``eps ||L Q||`` on sigma, not
     ``eps ||L Q||^2`` on sigma^2); the many small islands share one batched eigensolve of
@@ -315,9 +317,11 @@ def _ritz(L, Q: np.ndarray, islands: Islands, p: int):
     alive = np.einsum("ijj->ij", islands.gram(Q, Q)) > 0.5  # columns _basis dropped are zero
     coef = np.zeros((islands.n, k, p))
     mu = np.full((islands.n, p), np.inf)
+    floor = np.zeros(islands.n)
     if islands.small_rows.size:
         K = islands.gram(LQ, LQ, large=False)
         K = 0.5 * (K + K.transpose(0, 2, 1))
+        floor = 1e-13 * np.abs(K).max(axis=(1, 2))  # large islands: set below
         dead = 2.0 * np.abs(K).max(axis=(1, 2))[:, None] + 1e-300
         K[:, np.arange(k), np.arange(k)] += np.where(alive, 0.0, dead)
         w, c = np.linalg.eigh(K)
@@ -333,7 +337,8 @@ def _ritz(L, Q: np.ndarray, islands: Islands, p: int):
         coef[i] = 0.0
         coef[i][cols, :q] = vt[::-1][:q].T
         mu[i, :q] = sig[::-1][:q] ** 2
-    return islands.apply(Q, coef), islands.apply(LQ, coef), mu
+        floor[i] = (1e-12 * sig[0]) ** 2 if len(sig) else 0.0
+    return islands.apply(Q, coef), islands.apply(LQ, coef), mu, floor
 
 
 def spectral_embedding(
@@ -374,7 +379,7 @@ def spectral_embedding(
     pls = _PinnedLeastSquares(L, islands, plan)
     H = pls.H
     t1 = time.perf_counter()
-    Y, LY, mu = _ritz(L, _basis([H], islands), islands, block)
+    Y, LY, mu, _ = _ritz(L, _basis([H], islands), islands, block)
     done = np.zeros(islands.n, dtype=bool)
     change = np.full(islands.n, np.inf)
     Y_prev = np.zeros_like(Y)
@@ -383,12 +388,12 @@ def spectral_embedding(
         # preconditioned residual with the exact inverse on the free block
         R = L.T @ LY - Y * np.where(np.isfinite(mu), mu, 0.0)[islands.label, : Y.shape[1]]
         W = pls.solve_mff(R)
-        Y_new, LY_new, mu_new = _ritz(L, _basis([Y, H, W, Y_prev], islands), islands, block + 1)
+        Y_new, LY_new, mu_new, floor = _ritz(L, _basis([Y, H, W, Y_prev], islands), islands, block + 1)
         # a null space of more than two non-constant dimensions (measured: two Smart UV
         # islands of a subdivided Suzanne, four zero singular values of L each) makes the
         # pair ambiguous; the iteration would wander inside it to max_iter. The Ritz values
         # bound the eigenvalues from above, so a third one at rounding level proves it.
-        ambiguous = np.all(mu_new <= _NULL, axis=1)
+        ambiguous = np.all(mu_new <= np.maximum(floor, _NULL)[:, None], axis=1)
         Y_new, LY_new, mu_new = Y_new[:, :block], LY_new[:, :block], mu_new[:, :block]
         Y_prev = Y
         cross = islands.gram(Y[:, :2], Y_new[:, :2])
