@@ -9,6 +9,8 @@ import numpy as np
 METHODS = {
     "isoparam": lambda: bpy.ops.uv.isometric_unwrap(),
     "isoparam (paper, no refinement)": lambda: bpy.ops.uv.isometric_unwrap(refine=0),
+    "isoparam, Extra Cuts 0": lambda: bpy.ops.uv.isometric_unwrap(extra_cuts=0),
+    "isoparam (paper), Extra Cuts 0": lambda: bpy.ops.uv.isometric_unwrap(refine=0, extra_cuts=0),
     "ANGLE_BASED": lambda: bpy.ops.uv.unwrap(method="ANGLE_BASED", margin=0.001),
     "CONFORMAL": lambda: bpy.ops.uv.unwrap(method="CONFORMAL", margin=0.001),
     "MINIMUM_STRETCH": lambda: bpy.ops.uv.unwrap(method="MINIMUM_STRETCH", iterations=10, margin=0.001),

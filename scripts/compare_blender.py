@@ -48,7 +48,16 @@ MESHES = {  # name: (title, () -> (V, F, seams or None))
     "cap": ("spherical cap (K > 0)", lambda: (*ex.spherical_cap(30), None)),
     "saddle": ("saddle z = 0.6 (x^2 - y^2) (K < 0)", lambda: (*ex.saddle(61, 0.6), None)),
     "suzanne": ("Suzanne, subdivided twice, seams from Smart UV Project", lambda: suzanne(2)),
+    "suzanne_noseams": ("Suzanne, subdivided twice, no seams", lambda: (*suzanne(2)[:2], None)),
+    "cube": ("closed cube, 6x6 quads per side, no seams", lambda: _cube()),
 }
+
+
+def _cube():
+    V, F, _ = ex.box(6)
+    return V, F, None
+
+
 DEFAULT_MESHES = ["peaks41", "s_random", "cap", "saddle", "suzanne", "peaks100k"]
 DEFAULT_METHODS = ["isoparam", "isoparam (paper, no refinement)", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
 

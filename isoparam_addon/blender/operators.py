@@ -55,6 +55,15 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         min=0,
         max=2000,
     )
+    extra_cuts: IntProperty(
+        name="Extra Cuts",
+        description="Islands that have to be cut open (closed, with holes or handles, no seams marked) get up "
+        "to this many more cuts, each from the cut to the most squeezed or stretched spot, while they "
+        "help; every attempt solves again. 0 cuts only as much as opening the island needs",
+        default=4,
+        min=0,
+        max=20,
+    )
     show_stretch: BoolProperty(
         name="Show Stretch",
         description="Colour the faces by distortion (colour attribute 'isoparam_stretch': white = true "
@@ -75,6 +84,7 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
             correct_aspect=self.correct_aspect,
             world_scale=self.world_scale,
             refine=self.refine,
+            extra_cuts=self.extra_cuts,
             show_stretch=self.show_stretch,
         )
         return unwrap.run(self, context, opts)

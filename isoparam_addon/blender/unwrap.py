@@ -27,6 +27,7 @@ class Options:
     correct_aspect: bool = True
     world_scale: bool = False
     refine: int = 100
+    extra_cuts: int = 4
     show_stretch: bool = False
 
 
@@ -200,6 +201,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
                 refine=opts.refine,
                 pins=(locked, old) if locked.any() else None,
                 inner_edges=sel.diagonals,
+                extra_cuts=opts.extra_cuts,
             )
         except InvalidMeshError as err:
             op.report({"ERROR"}, "Isometric Unwrap: " + _describe(err, sel) + ". Nothing was changed")

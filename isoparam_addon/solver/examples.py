@@ -314,3 +314,32 @@ def annulus(n_radial: int = 8, n_around: int = 48, r0: float = 0.5, r1: float = 
     s, t = p + n_around, q + n_around
     F = np.concatenate([np.stack([p.ravel(), q.ravel(), t.ravel()], 1), np.stack([p.ravel(), t.ravel(), s.ravel()], 1)])
     return V, F.astype(np.int64)
+
+
+def box(k: int = 8):
+    """The closed surface of the cube [-1, 1]^3 with k x k quads per side, each split along
+    its diagonal from its first corner; also returns those diagonals (d, 2).
+
+    Developable except at its eight corners, so a layout cut open only by a short path
+    squeezes the faces around the corners; one cut per corner makes it nearly exact.
+    """
+    g = np.linspace(-1.0, 1.0, k + 1)
+    u, v = (c.ravel() for c in np.meshgrid(g, g, indexing="ij"))
+    idx = np.arange((k + 1) ** 2).reshape(k + 1, k + 1)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    quad = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    P, Fs, D = [], [], []
+    for axis in range(3):
+        rest = [x for x in range(3) if x != axis]
+        for sign in (-1.0, 1.0):  # the six sides, faces turned outwards
+            pts = np.zeros((len(u), 3))
+            pts[:, axis], pts[:, rest[0]], pts[:, rest[1]] = sign, u, v
+            base = sum(len(p) for p in P)
+            outwards = (sign > 0) == (axis != 1)  # (rest[0], rest[1]) x-products to +/-axis
+            Fs.append(base + (quad if outwards else quad[:, ::-1]))
+            D.append(base + np.stack([a, c], 1))
+            P.append(pts)
+    P = np.concatenate(P)
+    _, first, weld = np.unique(np.round(P * 1e9).astype(np.int64), axis=0, return_index=True, return_inverse=True)
+    weld = weld.ravel()
+    return P[first], weld[np.concatenate(Fs)], weld[np.concatenate(D)]

@@ -479,3 +479,23 @@ def test_automatic_cuts_of_closed_polygon_meshes_follow_mesh_edges(scene, primit
     e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
     area = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
     assert (area > 0).all()
+
+
+def test_extra_cuts_open_a_closed_cube_towards_its_corners(scene):
+    # a subdivided cube with no seams: the shortest cut that opens it squeezes the faces
+    # around its corners; the default Extra Cuts run paths to them, along quad edges
+    bpy.ops.mesh.primitive_cube_add()
+    ob = bpy.context.object
+    edit(ob)
+    bpy.ops.mesh.subdivide(number_cuts=5)
+    measured = {}
+    for cuts in (0, 4):
+        assert unwrap(extra_cuts=cuts) == {"FINISHED"}
+        object_mode()
+        V, F, uv = triangle_uvs(ob)
+        measured[cuts] = metrics.distortion(V, F, uv)
+        assert measured[cuts]["flipped"] == 0  # a cut along a quad's diagonal would fold it
+        edit(ob)
+    # measured on bpy 5.0.1: area distortion 0.290 -> 0.053, symmetric Dirichlet 4.65 -> 4.06
+    assert measured[4]["area_distortion"] < 0.25 * measured[0]["area_distortion"]
+    assert measured[4]["symmetric_dirichlet"] < 4.2 < measured[0]["symmetric_dirichlet"]

@@ -1,0 +1,117 @@
+"""Beyond the paper: longer cuts for islands that had to be cut automatically.
+
+A closed island, or one with handles or holes, is opened into a disk by the shortest cut
+that does it (:func:`mesh._cut_graph`). That cut only fixes the topology: a closed
+surface opened along one short path is flattened with a few regions squeezed and others
+blown up (Suzanne with no seams: the layout's area is off by a factor ``e^2 ~ 7`` on
+average). Gu, Gortler and Hoppe ("Geometry images", SIGGRAPH 2002, Section 3.2) grow the
+cut instead: find the vertex whose neighbourhood is most distorted, cut the shortest
+path from the current boundary to it, parametrize again, and keep going while the
+distortion falls. A path from the boundary to an interior vertex is a slit, so the
+island stays one disk and keeps its number.
+
+Here the distortion is the area distortion ``|log(area_uv / area_3d)|`` at the island's
+own scale, which neither a fold nor the layout's scale can hide. Measured on Suzanne
+subdivided twice with no seams (7,958 vertices, refine=100): symmetric Dirichlet 16.3
+with the shortest cut, then 7.46, 4.49 and 4.20 after one, two and three paths of 54,
+49 and 43 edges; a fourth path of one edge gained 0.05%.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
+
+from .mesh import HalfEdges
+
+__all__ = ["area_distortion", "next_paths"]
+
+_WORTH = np.log(1.5)  # a vertex whose faces are off by less than 1.5x in area needs no cut
+
+
+def area_distortion(V: np.ndarray, F: np.ndarray, corner_uv: np.ndarray, face_island: np.ndarray, n: int):
+    """Per face ``|log(area_uv / (s_i area_3d))|`` (m,), and per island its area-weighted
+    mean (n,), with ``s_i`` the island's UV area over its 3D area. Faces without 3D area
+    weigh nothing; a collapsed UV triangle counts as 1e-12 of its share."""
+    p = [V[F[:, k]] for k in range(3)]
+    a3 = 0.5 * np.linalg.norm(np.cross(p[1] - p[0], p[2] - p[0]), axis=1)
+    e1, e2 = corner_uv[:, 1] - corner_uv[:, 0], corner_uv[:, 2] - corner_uv[:, 0]
+    a2 = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    A3 = np.bincount(face_island, a3, minlength=n)
+    s = np.bincount(face_island, a2, minlength=n) / np.where(A3 > 0, A3, 1.0)
+    expected = a3 * s[face_island]
+    ok = expected > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bad = np.where(ok, np.abs(np.log(np.maximum(a2, 1e-12 * expected) / np.where(ok, expected, 1.0))), 0.0)
+    mean = np.bincount(face_island, bad * a3, minlength=n) / np.where(A3 > 0, A3, 1.0)
+    return bad, mean
+
+
+def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
+    """One more cut per island in ``islands``: the shortest path (3D edge lengths) from
+    the island's boundary (mesh boundary and ``seams``, which include the cuts so far) to
+    its interior vertex of largest mean face distortion ``face_bad``.
+
+    Paths never use ``inner`` edges (polygon diagonals); an island whose worst vertex is
+    below ``_WORTH``, or cannot be reached without them, gets no path.
+
+    Returns the new edges (k, 2) as vertex pairs, the island of each (k,), and which of
+    ``islands`` got a path.
+    """
+    n = len(V)
+    he = HalfEdges(F, n)
+    ev = he.edge_vertices
+    want = np.zeros(int(face_island.max()) + 1, dtype=bool)
+    want[islands] = True
+    e_isl = np.empty(he.n_edges, dtype=np.int64)
+    e_isl[he.edge] = np.repeat(face_island, 3)
+    in_isl = want[e_isl]
+    key = ev[:, 0] * np.int64(n) + ev[:, 1]
+
+    def mask(pairs):
+        out = np.zeros(he.n_edges, dtype=bool)
+        if pairs is not None and len(pairs):
+            q = np.sort(np.asarray(pairs, dtype=np.int64).reshape(-1, 2), axis=1)
+            out[np.isin(key, q[:, 0] * np.int64(n) + q[:, 1])] = True
+        return out
+
+    cut = mask(seams) | (he.edge_count == 1)
+    diag = mask(inner)
+    on_cut = np.zeros(n, dtype=bool)
+    on_cut[ev[cut].ravel()] = True
+    # vertex score: mean distortion of its faces; boundary vertices are where paths start
+    count = np.bincount(F.ravel(), minlength=n)
+    score = np.bincount(F.ravel(), np.repeat(face_bad, 3), minlength=n) / np.maximum(count, 1)
+    v_isl = np.full(n, -1, dtype=np.int64)
+    v_isl[F.ravel()] = np.repeat(face_island, 3)
+    live = (v_isl >= 0) & want[np.maximum(v_isl, 0)] & ~on_cut & (score > _WORTH)
+    best = np.full(len(want), -np.inf)
+    np.maximum.at(best, v_isl[live], score[live])
+    hit = live & (score == best[np.maximum(v_isl, 0)])
+    target = np.full(len(want), n, dtype=np.int64)
+    np.minimum.at(target, v_isl[hit], np.flatnonzero(hit))
+    target = target[islands]
+    got = target < n
+    if not got.any():
+        return np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64), got
+    # walk the island's edges only, never along a cut (it is boundary already) or a diagonal
+    use = in_isl & ~cut & ~diag
+    length = np.linalg.norm(V[ev[use, 0]] - V[ev[use, 1]], axis=1)
+    length += 1e-12 * max(float(length.max(initial=0.0)), 1e-300)  # csgraph drops zero weights
+    graph = sp.coo_matrix((length, (ev[use, 0], ev[use, 1])), shape=(n, n)).tocsr()
+    sources = np.flatnonzero(on_cut)
+    dist, pred, _ = csgraph.dijkstra(graph, directed=False, indices=sources, min_only=True, return_predecessors=True)
+    got &= np.isfinite(dist[np.minimum(target, n - 1)])
+    cur = target[got]
+    path = np.flatnonzero(got)  # which of ``islands`` each walk belongs to
+    edges, owner = [], []
+    while cur.size:  # one step along every path at once; as many rounds as the longest path
+        prev = pred[cur]
+        edges.append(np.stack([cur, prev], axis=1))
+        owner.append(path)
+        going = ~on_cut[prev]
+        cur, path = prev[going], path[going]
+    if not edges:
+        return np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64), got
+    return np.concatenate(edges), islands[np.concatenate(owner)], got
