@@ -115,6 +115,7 @@ def unwrap_scene(args) -> dict:
                 margin=args.margin,
                 world_scale=args.world_scale,
                 correct_aspect=not args.no_aspect,
+                **({} if args.extra_cuts is None else {"extra_cuts": args.extra_cuts}),
             )
         finally:
             bpy.ops.object.mode_set(mode="OBJECT")
@@ -141,6 +142,9 @@ def parse(argv):
     ap.add_argument("--margin", type=float, default=0.001)
     ap.add_argument("--world-scale", action="store_true", help="one UV unit per world unit")
     ap.add_argument("--no-aspect", action="store_true", help="ignore image aspect ratios")
+    ap.add_argument(
+        "--extra-cuts", type=int, help="more cuts for islands cut open automatically (default: the operator's, 4)"
+    )
     ap.add_argument("--report", type=Path, help="write the per-file report as JSON")
     return ap.parse_args(argv)
 

@@ -137,3 +137,15 @@ def test_inside_blender_on_the_open_file(tmp_path):
 def test_bad_arguments_exit_with_2(tmp_path):
     code, out, err = run("--no-such-option")
     assert code == 2
+
+
+def test_extra_cuts_option_reaches_the_operator(tmp_path):
+    V, F, _ = ex.box(4)  # closed: cut open automatically, then the extra cuts
+    write_obj(tmp_path / "box.obj", V, F)
+    counts = {}
+    for cuts in ("0", "6"):
+        code, out, err = run(tmp_path / "box.obj", "-o", tmp_path / f"box_{cuts}.obj", "--extra-cuts", cuts)
+        assert code == 0, err
+        # every cut edge splits its vertices' UVs: more cuts, more distinct UVs
+        counts[cuts] = len(np.unique(obj_uvs(tmp_path / f"box_{cuts}.obj").round(6), axis=0))
+    assert counts["6"] > counts["0"] > len(V)
