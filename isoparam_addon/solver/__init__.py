@@ -213,6 +213,8 @@ def parametrize(
         result = _parametrize(vertices, faces, seams, **options)
         if extra_cuts > 0 and len(result.cut_islands):
             result = _extend_cuts(result, seams, extra_cuts, options)
+        elif extra_cuts > 0:  # nothing was cut open: the same keys, nothing done
+            result.stats.update(extra_cut_tries=0, extra_cut_edges=0)
         return result
 
 
@@ -240,7 +242,7 @@ def _extend_cuts(first: Parametrization, seams, rounds: int, options: dict) -> P
             break
         tries += 1
         trial = _parametrize(V, F, np.vstack([base, cuts, new]), **options)
-        if trial.n_islands != best.n_islands:  # a slit never splits an island; stop if it did
+        if trial.n_islands != best.n_islands or trial.cut_islands.size:  # a slit keeps one disk
             break
         _, m = area_distortion(V, F, trial.corner_uv, trial.face_island, trial.n_islands)
         better = m[active] < (1.0 - _GAIN) * score[active]

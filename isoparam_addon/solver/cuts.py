@@ -53,8 +53,9 @@ def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
     the island's boundary (mesh boundary and ``seams``, which include the cuts so far) to
     its interior vertex of largest mean face distortion ``face_bad``.
 
-    Paths never use ``inner`` edges (polygon diagonals); an island whose worst vertex is
-    below ``_WORTH``, or cannot be reached without them, gets no path.
+    Paths never use ``inner`` edges (polygon diagonals) or a bow-tie's pinch vertex, and
+    never start at a lone seam edge that opens nothing; an island whose worst vertex is
+    below ``_WORTH``, or cannot be reached that way, gets no path.
 
     Returns the new edges (k, 2) as vertex pairs, the island of each (k,), and which of
     ``islands`` got a path.
@@ -77,6 +78,9 @@ def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
         return out
 
     cut = mask(seams) | (he.edge_count == 1)
+    # a lone interior seam edge (no other cut at either end) opens nothing: not a boundary
+    degree = np.bincount(ev[cut].ravel(), minlength=n)
+    cut &= ~((he.edge_count == 2) & (degree[ev[:, 0]] == 1) & (degree[ev[:, 1]] == 1))
     diag = mask(inner)
     on_cut = np.zeros(n, dtype=bool)
     on_cut[ev[cut].ravel()] = True
@@ -85,7 +89,11 @@ def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
     score = np.bincount(F.ravel(), np.repeat(face_bad, 3), minlength=n) / np.maximum(count, 1)
     v_isl = np.full(n, -1, dtype=np.int64)
     v_isl[F.ravel()] = np.repeat(face_island, 3)
-    live = (v_isl >= 0) & want[np.maximum(v_isl, 0)] & ~on_cut & (score > _WORTH)
+    # a vertex in several islands and on no cut is a bow-tie's pinch: paths keep off it
+    low = np.full(n, np.iinfo(np.int64).max)
+    np.minimum.at(low, F.ravel(), np.repeat(face_island, 3))
+    pinch = (v_isl >= 0) & (low != v_isl) & ~on_cut
+    live = (v_isl >= 0) & want[np.maximum(v_isl, 0)] & ~on_cut & ~pinch & (score > _WORTH)
     best = np.full(len(want), -np.inf)
     np.maximum.at(best, v_isl[live], score[live])
     hit = live & (score == best[np.maximum(v_isl, 0)])
@@ -96,7 +104,7 @@ def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
     if not got.any():
         return np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64), got
     # walk the island's edges only, never along a cut (it is boundary already) or a diagonal
-    use = in_isl & ~cut & ~diag
+    use = in_isl & ~cut & ~diag & ~pinch[ev[:, 0]] & ~pinch[ev[:, 1]]
     length = np.linalg.norm(V[ev[use, 0]] - V[ev[use, 1]], axis=1)
     length += 1e-12 * max(float(length.max(initial=0.0)), 1e-300)  # csgraph drops zero weights
     graph = sp.coo_matrix((length, (ev[use, 0], ev[use, 1])), shape=(n, n)).tocsr()
