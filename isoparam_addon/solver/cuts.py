@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .mesh import HalfEdges
+from .mesh import HalfEdges, _seam_mask
 
 __all__ = ["area_distortion", "next_paths"]
 
@@ -68,20 +68,11 @@ def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
     e_isl = np.empty(he.n_edges, dtype=np.int64)
     e_isl[he.edge] = np.repeat(face_island, 3)
     in_isl = want[e_isl]
-    key = ev[:, 0] * np.int64(n) + ev[:, 1]
-
-    def mask(pairs):
-        out = np.zeros(he.n_edges, dtype=bool)
-        if pairs is not None and len(pairs):
-            q = np.sort(np.asarray(pairs, dtype=np.int64).reshape(-1, 2), axis=1)
-            out[np.isin(key, q[:, 0] * np.int64(n) + q[:, 1])] = True
-        return out
-
-    cut = mask(seams) | (he.edge_count == 1)
+    cut = _seam_mask(he, n, seams) | (he.edge_count == 1)
     # a lone interior seam edge (no other cut at either end) opens nothing: not a boundary
     degree = np.bincount(ev[cut].ravel(), minlength=n)
     cut &= ~((he.edge_count == 2) & (degree[ev[:, 0]] == 1) & (degree[ev[:, 1]] == 1))
-    diag = mask(inner)
+    diag = _seam_mask(he, n, inner, "inner_edges")
     on_cut = np.zeros(n, dtype=bool)
     on_cut[ev[cut].ravel()] = True
     # vertex score: mean distortion of its faces; boundary vertices are where paths start
