@@ -57,8 +57,10 @@ def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
     never start at a lone seam edge that opens nothing; an island whose worst vertex is
     below ``_WORTH``, or cannot be reached that way, gets no path.
 
-    Returns the new edges (k, 2) as vertex pairs, the island of each (k,), and which of
-    ``islands`` got a path.
+    ``V`` (n, 3), ``F`` (m, 3), ``face_island`` (m,), ``islands`` (j,) island numbers,
+    ``face_bad`` (m,) (from :func:`area_distortion`), ``seams`` and ``inner`` (k, 2) vertex
+    pairs. Returns the new edges (k, 2) as vertex pairs, the island of each (k,), and which
+    of ``islands`` got a path (j,) bool.
     """
     n = len(V)
     he = HalfEdges(F, n)
