@@ -228,3 +228,31 @@ def test_a_null_space_of_more_than_two_dimensions_gives_a_null_pair_and_stops(gr
     Y = emb.coords / np.linalg.norm(emb.coords, axis=0)
     assert np.abs(L @ Y).max() < 1e-10
     assert np.linalg.svd(Y, compute_uv=False).min() > 0.5  # two independent vectors
+
+
+def test_an_island_that_converges_slowly_goes_on_alone(monkeypatch):
+    # a closed box (cut open automatically; its symmetry gives Step 3 a slow pair: 38
+    # iterations alone) beside a peaks disk (2 iterations): once the disk is done, the box
+    # goes on with its own factorization, and ends where solving the box alone ends
+    from isoparam_addon.solver import embed
+
+    (Vb, Fb, D), (Vp, Fp) = ex.box(8), ex.peaks(41)
+    V = np.vstack([Vp, Vb + [5.0, 0.0, 0.0]])
+    F, D = np.vstack([Fp, Fb + len(Vp)]), D + len(Vp)
+    alone = parametrize(Vb, Fb, inner_edges=D - len(Vp))
+    sizes = []
+    inner = embed.spectral_embedding
+    monkeypatch.setattr(embed, "spectral_embedding", lambda L, *a, **k: sizes.append(L.shape[0]) or inner(L, *a, **k))
+    r = parametrize(V, F, inner_edges=D)
+    assert r.converged.all() and alone.stats["iterations"] > 20
+    box = r.face_island[-1]
+    assert sizes == [alone.stats["split_vertices"]]  # the box's rows (once cut open) alone
+    assert r.eigenvalues[box] == pytest.approx(alone.eigenvalues[0], rel=1e-6)
+    assert r.stats["iterations"] < alone.stats["iterations"]
+    # the layouts agree (Step 4 makes them unique up to a rigid motion)
+    mine = r.face_island == box
+    ours, theirs = r.corner_uv[mine].reshape(-1, 2), alone.corner_uv.reshape(-1, 2)
+    assert procrustes_error(ours, theirs) < 1e-6
+    monkeypatch.setattr(embed, "_HANDOVER", 0.0)  # no hand-over: the same result
+    kept = parametrize(V, F, inner_edges=D)
+    assert np.abs(kept.corner_uv - r.corner_uv).max() < 1e-6 * np.abs(r.corner_uv).max()

@@ -263,6 +263,7 @@ class _PinnedLeastSquares:
         return self._from_rows(self._solve_range(solve_columns(self.lu, rhs, trans="T")))
 
 
+_HANDOVER = 0.25  # once the islands still iterating hold at most this share of the rows: own LU
 _LINEAR = 0.1  # largest last step from which the convergence rate is extrapolated
 _REMAINDER = 1e-8  # smallest kept part of a column outside the previous blocks (relative)
 _NULL = 1e-24  # a Ritz value ||L y||^2 (||y|| = 1) this small is rounding: y is a null vector of L
@@ -349,6 +350,7 @@ def spectral_embedding(
     max_iter: int = 40,
     block: int = 2,
     plan: Plan | None = None,
+    start: np.ndarray | None = None,
 ) -> Embedding:
     """Two lowest non-constant eigenvectors of ``M = L^T L`` per island (Step 3).
 
@@ -367,6 +369,15 @@ def spectral_embedding(
         Ritz vectors carried (2 are wanted; more did not pay off on our meshes).
     plan : Plan, optional
         From :func:`plan_elimination`; computed here if not given.
+    start : (n, block) float64, optional
+        Vectors to start from, orthonormal and centred per island (else the pinned
+        least-squares basis alone).
+
+    Every iteration's solves run over the whole factorization, so islands that have
+    converged would keep paying for one that has not (a symmetric island, a box or a
+    cylinder, can take 30 iterations where others take 2). Once the islands still
+    iterating hold at most ``_HANDOVER`` of the rows, they go on alone: their own
+    (small) factorization, started from where they are.
 
     Returns
     -------
@@ -379,11 +390,12 @@ def spectral_embedding(
     pls = _PinnedLeastSquares(L, islands, plan)
     H = pls.H
     t1 = time.perf_counter()
-    Y, LY, mu, _ = _ritz(L, _basis([H], islands), islands, block)
+    Y, LY, mu, _ = _ritz(L, _basis([H] if start is None else [start, H], islands), islands, block)
     done = np.zeros(islands.n, dtype=bool)
     change = np.full(islands.n, np.inf)
     Y_prev = np.zeros_like(Y)
     iterations = 0
+    rest = None
     for iterations in range(1, max_iter + 1):  # inverse iterations, a handful per mesh  # noqa: B007
         # preconditioned residual with the exact inverse on the free block
         R = L.T @ LY - Y * np.where(np.isfinite(mu), mu, 0.0)[islands.label, : Y.shape[1]]
@@ -415,8 +427,26 @@ def spectral_embedding(
         done |= (step < tol) | (predicted < tol) | ambiguous
         if done.all():
             break
+        if islands.size[~done].sum() <= _HANDOVER * len(Y) and iterations < max_iter:
+            rest = _go_on_alone(L, X, islands, ~done, Y, tol, max_iter - iterations, block)
+            break
     t2 = time.perf_counter()
     coords = Y[:, :2] * np.sqrt(islands.expand(islands.size.astype(np.float64)))[:, None]
+    if rest is not None:
+        live, rows, emb = rest
+        coords[rows] = emb.coords
+        mu[live, :2], done[live], change[live] = emb.eigenvalues, emb.converged, emb.change
+        iterations += emb.iterations
     timings = dict(pls.timings)
     timings.update(pinned_basis=t1 - t0 - pls.timings["factorization"], iterations=t2 - t1)
     return Embedding(coords, mu[:, :2], done, change, iterations, timings)
+
+
+def _go_on_alone(L, X, islands: Islands, live: np.ndarray, Y: np.ndarray, tol, max_iter, block):
+    """Step 3 for the ``live`` islands alone (their rows and columns of L: islands are
+    diagonal blocks), from their current vectors ``Y``. Returns the islands, their rows
+    and the :class:`Embedding` of that sub-problem."""
+    rows = np.flatnonzero(live[islands.label])
+    sub = Islands(np.cumsum(live)[islands.label[rows]] - 1, int(live.sum()))
+    L_sub = L[rows][:, rows]
+    return np.flatnonzero(live), rows, spectral_embedding(L_sub, X[rows], sub, tol, max_iter, block, start=Y[rows])
