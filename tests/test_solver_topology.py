@@ -186,3 +186,14 @@ def test_automatic_cuts_avoid_the_diagonals_of_triangulated_quads():
     cut = {tuple(sorted(e)) for e in r.cut_edges.tolist()}
     assert not cut & {tuple(sorted(d)) for d in diagonals}
     assert not r.flipped.any()
+
+
+def test_a_closed_island_is_cut_open_beside_a_large_disk():
+    # regression: the dual spanning tree's face-pair keys overflowed int32 (numpy 1.26
+    # keeps int32 * np.int64 scalar in int32) once the faces numbered past 46,341, so a
+    # closed box after a 200x200 peaks was "cut" along all its edges and the solve failed
+    (Vp, Fp), (Vb, Fb, _) = ex.peaks(200), ex.box(4)
+    V, F = np.vstack([Vp, Vb + [5.0, 0.0, 0.0]]), np.vstack([Fp, Fb + len(Vp)])
+    assert len(F) > 46_341
+    _, _, topo = build_topology(V, F)
+    assert topo.cut_islands.tolist() == [1] and 2 <= len(topo.cut_edges) < 20

@@ -696,7 +696,10 @@ def _cut_graph(X, Fs, he, face_island, todo, area, inner):
     weight[inner[e]] = 0.5 * tiny + 1e-300  # below every other: diagonals are crossed, not cut
     dual = sp.coo_matrix((weight, (h // 3, he.twin[h] // 3)), shape=(m, m)).tocsr()
     tree = csgraph.minimum_spanning_tree(dual).tocoo()
-    fkey = np.sort(np.minimum(tree.row, tree.col) * np.int64(m) + np.maximum(tree.row, tree.col))
+    # int64 before the product: scipy's rows are int32, and numpy 1.26 (Blender's) keeps
+    # int32 * np.int64(m) in int32 when m fits; past 46,341 faces the keys wrapped around
+    r, c = tree.row.astype(np.int64), tree.col.astype(np.int64)
+    fkey = np.sort(np.minimum(r, c) * m + np.maximum(r, c))
     f, g = h // 3, he.twin[h] // 3
     hkey = np.minimum(f, g) * np.int64(m) + np.maximum(f, g)
     crossed = np.zeros(he.n_edges, dtype=bool)
