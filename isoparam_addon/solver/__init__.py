@@ -221,40 +221,80 @@ def parametrize(
 _GAIN = 0.01  # an extra cut stays if it lowers its island's area distortion by this much
 
 
+def _solve_part(V, F, face_island, islands, seams, options: dict):
+    """Solve the faces of ``islands`` alone (islands are independent problems), unpacked.
+
+    Returns the result and the faces it covers (indices into F, or None for all of them:
+    then it is the whole mesh's result with ``options`` as given)."""
+    faces = np.flatnonzero(np.isin(face_island, islands))
+    if len(faces) == len(F):
+        return _parametrize(V, F, seams, **options), None
+    used = np.unique(F[faces])
+    index = np.full(len(V), -1, dtype=np.int64)
+    index[used] = np.arange(len(used))
+
+    def inside(pairs):
+        if pairs is None:
+            return None
+        p = index[np.asarray(pairs, dtype=np.int64).reshape(-1, 2)]
+        return p[(p >= 0).all(axis=1)]
+
+    part = dict(options, pack=False, inner_edges=inside(options["inner_edges"]))
+    if options["pins"] is not None:
+        part["pins"] = tuple(np.asarray(a)[faces] for a in options["pins"])
+    return _parametrize(V[used], index[F[faces]], inside(seams), **part), faces
+
+
 def _extend_cuts(first: Parametrization, seams, rounds: int, options: dict) -> Parametrization:
     """Grow the automatic cuts of ``first`` (see :mod:`.cuts`): one path per island and
-    round, kept where it lowers that island's area distortion by ``_GAIN``."""
+    round, kept where it lowers that island's area distortion by ``_GAIN``.
+
+    A try solves only the islands still being grown (on a mesh with one closed island
+    among many, a try costs that island's solve, not the mesh's); the result is the whole
+    mesh solved once more with the cuts kept, unless the last kept try was that already.
+    """
     t0 = time.perf_counter()
     V, F = first._mesh
     base = np.zeros((0, 2), dtype=np.int64) if seams is None else np.asarray(seams, dtype=np.int64).reshape(-1, 2)
+    isl = first.face_island
     cuts = first.cut_edges
-    best = first
-    _, before = area_distortion(V, F, first.corner_uv, first.face_island, first.n_islands)
+    bad, before = area_distortion(V, F, first.corner_uv, isl, first.n_islands)
     score = before.copy()
     active = first.cut_islands.copy()
-    tries = 0
+    current = first  # the whole mesh's result with exactly ``cuts``, when there is one
+    tries, gains = 0, []
     while active.size and tries < rounds:
-        bad, _ = area_distortion(V, F, best.corner_uv, best.face_island, best.n_islands)
-        cut_so_far = np.vstack([base, cuts])
-        new, owner, got = next_paths(V, F, best.face_island, active, bad, cut_so_far, options["inner_edges"])
+        new, owner, got = next_paths(V, F, isl, active, bad, np.vstack([base, cuts]), options["inner_edges"])
         active = active[got]
         if not active.size:
             break
         tries += 1
-        trial = _parametrize(V, F, np.vstack([base, cuts, new]), **options)
-        if trial.n_islands != best.n_islands or trial.cut_islands.size:  # a slit keeps one disk
+        trial, faces = _solve_part(V, F, isl, active, np.vstack([base, cuts, new]), options)
+        if trial.n_islands != len(active) or trial.cut_islands.size:  # a slit keeps one disk
             break
-        _, m = area_distortion(V, F, trial.corner_uv, trial.face_island, trial.n_islands)
-        better = m[active] < (1.0 - _GAIN) * score[active]
+        if faces is None:
+            t_bad, m = area_distortion(V, F, trial.corner_uv, trial.face_island, trial.n_islands)
+            faces, label = np.arange(len(F)), np.arange(first.n_islands)
+        else:
+            t_bad, m = area_distortion(*trial._mesh, trial.corner_uv, trial.face_island, trial.n_islands)
+            label = np.empty(trial.n_islands, dtype=np.int64)  # the trial's islands in ``first``'s numbering
+            label[trial.face_island] = isl[faces]
+            m = np.bincount(label, m, minlength=first.n_islands)
+        gain = 1.0 - m[active] / np.maximum(score[active], 1e-300)
+        gains.append(float(gain.max()))
+        better = gain >= _GAIN
         if not better.any():
             break
-        keep = np.isin(owner, active[better])
-        cuts = np.vstack([cuts, new[keep]])
-        score[active[better]] = m[active[better]]
-        best = trial if better.all() else _parametrize(V, F, np.vstack([base, cuts]), **options)
-        active = active[better]
+        won = active[better]
+        cuts = np.vstack([cuts, new[np.isin(owner, won)]])
+        score[won] = m[won]
+        mine = np.isin(isl[faces], won)
+        bad[faces[mine]] = t_bad[mine]
+        current = trial if better.all() and len(faces) == len(F) else None
+        active = won
     added = len(cuts) - len(first.cut_edges)
-    if best is not first:
+    best = current if current is not None else _parametrize(V, F, np.vstack([base, cuts]), **options)
+    if added:
         islands = first.cut_islands
         best.cut_edges, best.cut_islands = cuts, islands
         opened = [w for w in first.warnings if "cut into disks automatically" in w]
@@ -265,7 +305,7 @@ def _extend_cuts(first: Parametrization, seams, rounds: int, options: dict) -> P
         best.warnings = [*opened, lowered, *best.warnings]
     best.timings["extra_cuts"] = time.perf_counter() - t0
     best.timings["total"] = first.timings["total"] + best.timings["extra_cuts"]
-    best.stats.update(extra_cut_tries=tries, extra_cut_edges=added)
+    best.stats.update(extra_cut_tries=tries, extra_cut_edges=added, extra_cut_gains=gains)
     return best
 
 
