@@ -99,6 +99,31 @@ def test_islands_are_refined_independently():
         assert procrustes_error(alone.corner_uv.reshape(-1, 2), mine.reshape(-1, 2)) < 1e-9
 
 
+def test_a_large_island_beside_small_ones_is_refined_as_it_would_be_alone(monkeypatch):
+    # a large island (its own BLAS dot products) beside small ones (one bincount), and line
+    # searches that go on for a few islands only (only their faces evaluated again)
+    from isoparam_addon.solver import refine
+
+    parts = (ex.peaks(41), ex.sphere_band(), ex.spherical_cap(10))
+    V, F = _islands(*parts)
+    searched = []
+    faces_in = refine._PerIsland.faces_in
+
+    def spy(self, which):
+        f = faces_in(self, which)
+        assert np.array_equal(np.sort(f), np.flatnonzero(which[self.face]))  # the faces of those islands
+        searched.append(len(f))
+        return f
+
+    monkeypatch.setattr(refine._PerIsland, "faces_in", spy)
+    both = parametrize(V, F, refine=100, pack=False)
+    assert any(0 < k < len(F) / 2 for k in searched)  # the partial evaluation ran
+    for i, (Vi, Fi) in enumerate(parts):
+        alone = parametrize(Vi, Fi, refine=100, pack=False)
+        mine = both.corner_uv[both.face_island == i]
+        assert procrustes_error(alone.corner_uv.reshape(-1, 2), mine.reshape(-1, 2)) < 1e-9
+
+
 def test_conformal_seed_is_a_similarity_on_a_developable_mesh():
     from isoparam_addon.solver.blocks import Islands
     from isoparam_addon.solver.refine import FaceFrames

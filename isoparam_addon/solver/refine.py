@@ -192,6 +192,7 @@ class _PerIsland:
 
     def __init__(self, islands: Islands, faces: np.ndarray):
         self.k = islands.n
+        self.islands = islands
         self.vertex = islands.label
         self.face = islands.label[faces[:, 0]]
         order = np.argsort(self.face, kind="stable")
@@ -200,10 +201,34 @@ class _PerIsland:
         self._has_faces = np.bincount(self.face, minlength=self.k) > 0
 
     def dot(self, a, b):
-        """(n, 2), (n, 2) -> (k,)."""
+        """(n, 2), (n, 2) -> (k,).
+
+        One BLAS dot per large island (rows are stored island by island) and one
+        ``bincount`` over the rows of the small ones: a ``bincount`` over every row took
+        1 ms at 108k rows against 0.15 ms (100k-vertex peaks beside Suzanne's 112 Smart UV
+        islands, 250 calls per refinement)."""
         if self.k == 1:  # one island: a BLAS dot; ``(a * b).sum(axis=1)`` is 4x slower
             return np.array([np.dot(a.ravel(), b.ravel())])
-        return np.bincount(self.vertex, a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1], minlength=self.k)
+        isl = self.islands
+        out = np.zeros(self.k)
+        if isl.small_rows.size:
+            r = isl.small_rows
+            a_s, b_s = np.take(a, r, axis=0), np.take(b, r, axis=0)
+            out += np.bincount(self.vertex[r], a_s[:, 0] * b_s[:, 0] + a_s[:, 1] * b_s[:, 1], minlength=self.k)
+        for i in isl.large:  # bounded by n / blocks._LARGE
+            r = isl.rows(i)
+            out[i] = np.dot(a[r].ravel(), b[r].ravel())
+        return out
+
+    def faces_in(self, which):
+        """Faces of the islands flagged in ``which`` (k,) bool, island by island."""
+        lo, hi = self._face_start, np.append(self._face_start[1:], len(self.face))
+        counts = np.where(which, hi - lo, 0)
+        if not counts.any():
+            return np.zeros(0, dtype=np.int64)
+        # each flagged island's run of the island-sorted face order
+        start = np.repeat(lo - np.cumsum(counts) + counts, counts)
+        return self._face_order[start + np.arange(counts.sum())]
 
     def face_sum(self, x):
         if self.k == 1:
@@ -444,9 +469,21 @@ def refine(
         dJ = frames.jacobians(p)
         t = np.where(active, np.minimum(1.0, 0.9 * each.face_min(_max_step(J, dJ, 1.0 / 0.9))), 0.0)
         searching = active.copy()
+        Jt = None
         while searching.any():  # backtracking (Armijo), island by island
-            Jt = tuple(j + each.faces_of(t) * dj for j, dj in zip(J, dJ))
-            Et, Gt = energies(Jt)
+            f = None if Jt is None else each.faces_in(searching)
+            if f is None or 2 * len(f) > len(area):
+                Jt = tuple(j + each.faces_of(t) * dj for j, dj in zip(J, dJ))
+                Et, Gt = energies(Jt)
+                Gt = list(Gt)
+            else:  # few faces still searching: evaluate only theirs, the rest stands
+                tf = t[each.face[f]]
+                Jf = [np.take(j, f) + tf * np.take(dj, f) for j, dj in zip(J, dJ)]
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    ef, Gf = _energy_terms(*Jf, np.take(area, f))
+                for k in range(4):
+                    Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
+                Et = np.where(searching, np.bincount(each.face[f], ef, minlength=islands.n), Et)
             searching &= ~(Et <= E + 1e-4 * t * slope)
             t[searching] *= 0.5
             gone = searching & (t < 1e-12)
