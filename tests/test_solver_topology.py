@@ -4,7 +4,7 @@ import numpy as np
 
 from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import metrics, parametrize
-from isoparam_addon.solver.mesh import HalfEdges, build_topology, fans
+from isoparam_addon.solver.mesh import HalfEdges, build_topology, fans, unique_edges
 
 from .conftest import edge_length_error
 
@@ -197,3 +197,10 @@ def test_a_closed_island_is_cut_open_beside_a_large_disk():
     assert len(F) > 46_341
     _, _, topo = build_topology(V, F)
     assert topo.cut_islands.tolist() == [1] and 2 <= len(topo.cut_edges) < 20
+
+
+def test_half_edges_take_int32_faces():
+    # Blender's corner buffers are int32; so is numpy 1.x's default integer on Windows
+    V, F = ex.peaks(9)
+    assert np.array_equal(unique_edges(F.astype(np.int32)), unique_edges(F))
+    assert unique_edges(F.astype(np.int32)).dtype == np.int64

@@ -165,6 +165,9 @@ class HalfEdges:
     """
 
     def __init__(self, F: np.ndarray, n: int):
+        # int64 throughout: the edge keys below are products of vertex numbers (numpy 1.x
+        # on Windows makes arange, cumsum and asarray of Python ints int32)
+        F = np.asarray(F, dtype=np.int64)
         a = F.ravel()
         b = _rotate(F).ravel()
         lo, hi = np.minimum(a, b), np.maximum(a, b)
@@ -465,10 +468,10 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
         used = np.zeros(n, dtype=bool)
         used[F.ravel()] = True
         if used.all():
-            Fs, vertex_of, he = F, np.arange(n), he0
+            Fs, vertex_of, he = F, np.arange(n, dtype=np.int64), he0
         else:
             vertex_of = np.flatnonzero(used)
-            rank = np.cumsum(used) - 1
+            rank = np.cumsum(used, dtype=np.int64) - 1
             Fs, he = rank[F], he0.relabel(rank)
     ns = len(vertex_of)
     face_island = _face_components(m, he, np.zeros(he.n_edges, dtype=bool))
@@ -728,7 +731,7 @@ def _cut_graph(X, Fs, he, face_island, todo, area, inner):
             nb = graph.indices[graph.indptr[b] : graph.indptr[b + 1]]
             cost = graph.data[graph.indptr[b] : graph.indptr[b + 1]]
             path.insert(0, int(nb[np.argmin(np.where(nb == r, np.inf, cost))]))
-        p = np.asarray(path)
+        p = np.asarray(path, dtype=np.int64)
         pk = np.minimum(p[:-1], p[1:]) * np.int64(ns) + np.maximum(p[:-1], p[1:])
         cut[np.searchsorted(ekey, pk)] = True
     return cut
