@@ -124,6 +124,30 @@ def test_a_large_island_beside_small_ones_is_refined_as_it_would_be_alone(monkey
         assert procrustes_error(alone.corner_uv.reshape(-1, 2), mine.reshape(-1, 2)) < 1e-9
 
 
+def test_a_slow_island_goes_on_alone_where_it_left_off(monkeypatch):
+    # a developable S-surface (done after 1 iteration) beside a closed box (11): once the
+    # box is all that descends it goes on with its own proxy and the same L-BFGS state,
+    # and the layout and energies are those of the refinement without the hand-over
+    from isoparam_addon.solver import refine
+
+    (Vs, Fs), (Vb, Fb, D) = ex.s_surface(100, 30)[:2], ex.box(8)
+    V, F, D = np.vstack([Vs, Vb + [5.0, 0.0, 0.0]]), np.vstack([Fs, Fb + len(Vs)]), D + len(Vs)
+    handed = []
+    go_on = refine._go_on_alone
+    monkeypatch.setattr(refine, "_go_on_alone", lambda *a: handed.append(go_on(*a)) or handed[-1])
+    r = parametrize(V, F, refine=100, pack=False, inner_edges=D)
+    box = np.arange(len(F)) >= len(Fs)
+    assert len(handed) == 1 and len(handed[0][0]) == len(np.unique(r.corner_uv[box].reshape(-1, 2), axis=0))
+    assert handed[0][1].iterations > 5  # the box's iterations after the hand-over
+    alone = parametrize(Vb, Fb, refine=100, pack=False, inner_edges=D - len(Vs))
+    assert procrustes_error(alone.corner_uv.reshape(-1, 2), r.corner_uv[box].reshape(-1, 2)) < 1e-7
+    monkeypatch.setattr(refine, "_HANDOVER", 0.0)
+    whole = parametrize(V, F, refine=100, pack=False, inner_edges=D)
+    assert r.stats["refine_iterations"] == whole.stats["refine_iterations"]
+    np.testing.assert_allclose(r.stats["refine_energy"], whole.stats["refine_energy"], rtol=1e-12)
+    assert np.abs(r.corner_uv - whole.corner_uv).max() < 1e-9 * np.abs(whole.corner_uv).max()
+
+
 def test_conformal_seed_is_a_similarity_on_a_developable_mesh():
     from isoparam_addon.solver.blocks import Islands
     from isoparam_addon.solver.refine import FaceFrames

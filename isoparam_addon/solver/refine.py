@@ -46,11 +46,14 @@ from scipy.sparse.linalg import splu
 
 from ._parallel import solve_columns
 from .blocks import Islands
+from .mesh import unique_edges
+from .ordering import nested_dissection
 from .seeds import lscm, signed_double_areas, tutte
 
 __all__ = ["Refinement", "refine", "FaceFrames"]
 
 _MEMORY = 8  # L-BFGS pairs
+_HANDOVER = 0.25  # once the islands still descending hold at most this share of the rows: own factor
 _COLLAPSED = 1e-6  # a seed face with less UV area than this times its 3D area: restart
 
 
@@ -333,11 +336,17 @@ def refine(
     pinned: np.ndarray | None = None,
     order: np.ndarray | None = None,
     proxy: Proxy | None = None,
+    carry: tuple | None = None,
 ) -> Refinement:
     """Lower the symmetric Dirichlet energy of a layout without folding it.
 
     Every island is its own problem: it has its own step lengths and L-BFGS memory and
-    stops on its own, so one hard island neither slows nor stops the others.
+    stops on its own, so one hard island neither slows nor stops the others. Each
+    iteration still costs a pass over every island, so once the islands still descending
+    hold at most ``_HANDOVER`` of the rows they go on alone, with their own factored
+    proxy (measured: Suzanne with no seams, closed and cut open, takes all 100 iterations;
+    beside a 100k-vertex peaks, done after 16, the refinement took 14 s, ~1.8 s for
+    peaks alone).
 
     Parameters
     ----------
@@ -363,6 +372,10 @@ def refine(
         Fill-reducing order for the factorization (e.g. the nested dissection of Step 3).
     proxy : Proxy, optional
         A proxy built beforehand by :func:`quadratic_proxy`; used if its pins are ours.
+    carry : (memory, gamma), optional
+        The L-BFGS state of the refinement these islands are handed over from (see
+        ``_go_on_alone``): the descent goes on where it was, with no restart from a
+        conformal map (``he_twin`` is not used) and no ARAP.
 
     Returns
     -------
@@ -377,7 +390,10 @@ def refine(
     area = frames.area
     each = _PerIsland(islands, faces)
     out = Refinement(uv=np.array(uv, dtype=np.float64, copy=True))
-    x, stuck = _reseed(X, faces, out.uv, he_twin, islands, frames, each, pinned, out)
+    if carry is None:
+        x, stuck = _reseed(X, faces, out.uv, he_twin, islands, frames, each, pinned, out)
+    else:
+        x, stuck = out.uv, np.zeros(islands.n, dtype=bool)
     # islands that still fold, and islands with nothing free, are left as they are
     free_count = np.bincount(islands.label, ~pinned, minlength=islands.n)
     active = ~stuck & (free_count > 0)
@@ -447,6 +463,8 @@ def refine(
     g = gradient(G)
     memory = []  # L-BFGS pairs (s, y, rho per island); an island's rho is 0 where unused
     gamma = np.ones(islands.n)  # per-island scale of the proxy, from the last good pair
+    if carry is not None:
+        memory, gamma = carry
     for it in range(1, iterations + 1):  # quasi-Newton steps, each one factored solve
         q = np.where(each.rows(active), g, 0.0)
         alphas = []
@@ -517,7 +535,48 @@ def refine(
         out.iterations = it
         if not active.any():
             break
+        if it < iterations and islands.size[active].sum() <= _HANDOVER * n:
+            rows, sub, sub_area = _go_on_alone(
+                X, faces, x, islands, active, each, pinned, iterations - it, tol, (memory, gamma), area
+            )
+            x = x.copy()
+            x[rows] = sub.uv
+            # the energy over every live face: the islands handed over, the others as they stopped
+            rest = float(E[~active].sum())
+            out.energy += [(rest + e * sub_area) / live_area for e in sub.energy[1:]]
+            out.iterations = it + sub.iterations
+            break
     out.uv = x
     out.folded = int((signed_double_areas(x, faces) <= 0).sum())
     out.seconds = time.perf_counter() - t0
     return out
+
+
+def _go_on_alone(X, faces, x, islands: Islands, active, each: _PerIsland, pinned, iterations, tol, state, area):
+    """:func:`refine` for the ``active`` islands alone, from their layout in ``x`` and
+    their part of the L-BFGS ``state`` (memory, gamma): their rows and faces, and a
+    nested-dissection order and proxy of their own (the proxy's blocks are what they
+    are in the whole, so the descent goes on as it would have). Returns their rows, the
+    :class:`Refinement` and the 3D area of their faces."""
+    rows = np.flatnonzero(active[islands.label])
+    index = np.full(len(X), -1, dtype=np.int64)
+    index[rows] = np.arange(len(rows))
+    f = each.faces_in(active)
+    F_sub = index[faces[f]]
+    X_sub = np.take(X, rows, axis=0)
+    sub = Islands(np.cumsum(active)[islands.label[rows]] - 1, int(active.sum()))
+    order = nested_dissection(X_sub, unique_edges(F_sub))
+    result = refine(
+        X_sub,
+        F_sub,
+        x[rows],
+        sub,
+        None,
+        iterations=iterations,
+        tol=tol,
+        arap=0,
+        pinned=pinned[rows],
+        order=order,
+        carry=([(s_k[rows], y_k[rows], rho[active]) for s_k, y_k, rho in state[0]], state[1][active]),
+    )
+    return rows, result, float(area[f].sum())
