@@ -148,3 +148,26 @@ def test_every_island_cut_open_gets_its_own_extra_cuts():
     assert first.sum() > (short.cut_edges < len(V1)).all(axis=1).sum()
     assert (~first).sum() > (~(short.cut_edges < len(V1)).all(axis=1)).sum()
     assert more.flipped.sum() == 0
+
+
+def test_a_try_on_an_island_whose_wedges_other_islands_separate():
+    # two faces at one vertex of a torus, seamed off as islands of their own, leave the
+    # torus two wedges there; a try that solves the torus alone sees those wedges meet
+    # at a bare vertex (a bow-tie) and must split it, as the whole mesh's seams did
+    # (found in review: InvalidMeshError on a valid mesh)
+    V, F = ex.torus(24, 12)
+    at = np.flatnonzero((F == 0).any(axis=1))
+    edge_sets = [pairs(np.stack([F[f], np.roll(F[f], -1)], axis=1)) for f in at]
+    a, b = next((i, j) for i in range(len(at)) for j in range(i + 1, len(at)) if not edge_sets[i] & edge_sets[j])
+    seams = np.array(sorted(edge_sets[a] | edge_sets[b]))
+    plain = parametrize(V, F, seams)
+    assert plain.n_islands == 3 and len(plain.cut_islands) == 1
+    r = parametrize(V, F, seams, extra_cuts=2)
+    assert r.stats["extra_cut_tries"] >= 1 and np.isfinite(r.corner_uv).all()
+    assert r.n_islands == 3 and r.flipped.sum() == 0
+
+
+def test_the_gains_are_listed_when_nothing_was_cut_open_too():
+    V, F = ex.peaks(9)
+    r = parametrize(V, F, extra_cuts=2)
+    assert r.stats["extra_cut_tries"] == 0 and r.stats["extra_cut_gains"] == []

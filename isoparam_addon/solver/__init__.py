@@ -187,8 +187,10 @@ def parametrize(
         Islands that had to be cut automatically (closed, handles, holes) get up to this
         many more cuts, each the shortest path from the island's boundary to its most
         distorted vertex, as long as each lowers the island's area distortion by 1% or
-        more (see :mod:`.cuts`). Every attempt solves the mesh again. 0: the shortest
-        cut that opens the island, nothing more.
+        more (see :mod:`.cuts`). Every attempt solves those islands again. 0: the
+        shortest cut that opens the island, nothing more. ``stats["extra_cut_gains"]``
+        lists per attempt the largest relative drop among the islands tried (None: the
+        attempt split an island or left one to be cut open again, and ended the search).
 
     Returns
     -------
@@ -214,7 +216,7 @@ def parametrize(
         if extra_cuts > 0 and len(result.cut_islands):
             result = _extend_cuts(result, seams, extra_cuts, options)
         elif extra_cuts > 0:  # nothing was cut open: the same keys, nothing done
-            result.stats.update(extra_cut_tries=0, extra_cut_edges=0)
+            result.stats.update(extra_cut_tries=0, extra_cut_edges=0, extra_cut_gains=[])
         return result
 
 
@@ -239,7 +241,9 @@ def _solve_part(V, F, face_island, islands, seams, options: dict):
         p = index[np.asarray(pairs, dtype=np.int64).reshape(-1, 2)]
         return p[(p >= 0).all(axis=1)]
 
-    part = dict(options, pack=False, inner_edges=inside(options["inner_edges"]))
+    # split_bowties: two wedges of an island around a vertex that other islands' faces
+    # separated (with seams) meet at a bare vertex once those faces are left out
+    part = dict(options, pack=False, split_bowties=True, inner_edges=inside(options["inner_edges"]))
     if options["pins"] is not None:
         part["pins"] = tuple(np.asarray(a)[faces] for a in options["pins"])
     return _parametrize(V[used], index[F[faces]], inside(seams), **part), faces
@@ -271,6 +275,7 @@ def _extend_cuts(first: Parametrization, seams, rounds: int, options: dict) -> P
         tries += 1
         trial, faces = _solve_part(V, F, isl, active, np.vstack([base, cuts, new]), options)
         if trial.n_islands != len(active) or trial.cut_islands.size:  # a slit keeps one disk
+            gains.append(None)  # tried, not measured
             break
         if faces is None:
             t_bad, m = area_distortion(V, F, trial.corner_uv, trial.face_island, trial.n_islands)
