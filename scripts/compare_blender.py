@@ -50,7 +50,16 @@ MESHES = {  # name: (title, () -> (V, F, seams or None))
     "suzanne": ("Suzanne, subdivided twice, seams from Smart UV Project", lambda: suzanne(2)),
     "suzanne_noseams": ("Suzanne, subdivided twice, no seams", lambda: (*suzanne(2)[:2], None)),
     "cube": ("closed cube, 6x6 quads per side, no seams", lambda: _cube()),
+    "suzanne4": ("Suzanne, subdivided 4 times, seams from Smart UV Project", lambda: suzanne(4)),
+    "peaks100k_suzanne": ("peaks 316x316 beside Suzanne subdivided twice, no seams", lambda: _peaks_suzanne()),
 }
+
+
+def _peaks_suzanne():
+    """A disk beside closed islands (Suzanne's head and eyes, cut open automatically)."""
+    Vp, Fp = ex.peaks(316)
+    Vs, Fs, _ = suzanne(2)
+    return np.vstack([Vp, Vs + [5.0, 0.0, 0.0]]), np.vstack([Fp, Fs + len(Vp)]), None
 
 
 def _cube():

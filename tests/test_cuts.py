@@ -108,9 +108,35 @@ def test_a_new_path_runs_from_the_cut_to_the_worst_vertex_along_mesh_edges():
     assert not on_cut[new[0, 0]] and on_cut[new[-1, 1]]
     assert np.array_equal(new[1:, 0], new[:-1, 1]) and len(set(new.ravel().tolist())) == len(new) + 1
     assert not on_cut[new[:-1, 1]].any()
-    # the target is the interior vertex of largest mean face distortion
+    # the target is the vertex of largest mean face distortion more than two edges from
+    # the cut (next to a slit's tip everything looks squeezed: a path there only moves it)
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import shortest_path
+
+    E = unique_edges(F)
+    graph = sp.coo_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(len(V), len(V)))
+    hops = shortest_path(graph, directed=False, unweighted=True, indices=np.flatnonzero(on_cut)).min(axis=0)
     score = np.bincount(F.ravel(), np.repeat(bad, 3), minlength=len(V)) / np.bincount(F.ravel(), minlength=len(V))
-    assert score[new[0, 0]] == pytest.approx(score[~on_cut].max())
+    assert hops[new[0, 0]] > 2 and len(new) >= 3
+    assert score[new[0, 0]] == pytest.approx(score[hops > 2].max())
+
+
+def test_targets_keep_two_edges_clear_of_the_cut():
+    # a squeezed spot next to the cut (as at a slit's tip) is passed over for one further in
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import shortest_path
+
+    V, F, diagonals = ex.box(6)
+    r = parametrize(V, F, refine=100, inner_edges=diagonals)
+    E = unique_edges(F)
+    graph = sp.coo_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(len(V), len(V)))
+    hops = shortest_path(graph, directed=False, unweighted=True, indices=np.unique(r.cut_edges)).min(axis=0)
+    near, far = np.flatnonzero(hops == 1)[0], np.flatnonzero(hops == 3)[0]
+    bad = np.zeros(len(F))
+    bad[(F == near).any(axis=1)] = 5.0
+    bad[(F == far).any(axis=1)] = 1.0
+    new, _, got = next_paths(V, F, r.face_island, np.array([0]), bad, r.cut_edges, diagonals)
+    assert got.tolist() == [True] and new[0, 0] == far and len(new) == 3
 
 
 def test_no_path_where_nothing_is_distorted_enough():

@@ -28,6 +28,12 @@ from .mesh import HalfEdges, _seam_mask
 __all__ = ["area_distortion", "next_paths"]
 
 _WORTH = np.log(1.5)  # a vertex whose faces are off by less than 1.5x in area needs no cut
+# targets keep this many edges away from the cut: the tip of a slit is a cone point whose
+# neighbours always look squeezed, and a path of an edge or two there only moves the tip
+# (measured: 100k peaks beside Suzanne with no seams, refine=100: the first path was one
+# edge long and the search stopped after two tries, Suzanne's symmetric Dirichlet 13.7;
+# with the two rings clear, 137 edges over three paths, 4.21, as for Suzanne alone)
+_CLEAR = 2
 
 
 def area_distortion(V: np.ndarray, F: np.ndarray, corner_uv: np.ndarray, face_island: np.ndarray, n: int):
@@ -51,7 +57,8 @@ def area_distortion(V: np.ndarray, F: np.ndarray, corner_uv: np.ndarray, face_is
 def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
     """One more cut per island in ``islands``: the shortest path (3D edge lengths) from
     the island's boundary (mesh boundary and ``seams``, which include the cuts so far) to
-    its interior vertex of largest mean face distortion ``face_bad``.
+    its interior vertex of largest mean face distortion ``face_bad`` among those more
+    than ``_CLEAR`` edges away from the boundary.
 
     Paths never use ``inner`` edges (polygon diagonals) or a bow-tie's pinch vertex, and
     never start at a lone seam edge that opens nothing; an island whose worst vertex is
@@ -86,7 +93,11 @@ def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
     low = np.full(n, np.iinfo(np.int64).max)
     np.minimum.at(low, F.ravel(), np.repeat(face_island, 3))
     pinch = (v_isl >= 0) & (low != v_isl) & ~on_cut
-    live = (v_isl >= 0) & want[np.maximum(v_isl, 0)] & ~on_cut & ~pinch & (score > _WORTH)
+    near = on_cut.copy()
+    for _ in range(_CLEAR):  # grow by one ring of edges
+        step = near[ev[:, 0]] | near[ev[:, 1]]
+        near[ev[step].ravel()] = True
+    live = (v_isl >= 0) & want[np.maximum(v_isl, 0)] & ~near & ~pinch & (score > _WORTH)
     best = np.full(len(want), -np.inf)
     np.maximum.at(best, v_isl[live], score[live])
     hit = live & (score == best[np.maximum(v_isl, 0)])
