@@ -226,6 +226,11 @@ def parametrize(
 _GAIN = 0.01  # an extra cut stays if it lowers its island's area distortion by this much
 
 
+def _pairs(seams) -> np.ndarray:
+    """Seams as a (k, 2) int64 array (k = 0 for None)."""
+    return np.zeros((0, 2), dtype=np.int64) if seams is None else np.asarray(seams, dtype=np.int64).reshape(-1, 2)
+
+
 def _sub_problem(V, F, faces, seams, options: dict):
     """The mesh of ``faces`` (indices into F) alone: its vertices, faces, seams and options
     (unpacked; pins, seams and polygon diagonals renumbered), and the mesh vertex of each
@@ -291,7 +296,7 @@ def _with_extra_cuts(vertices, faces, seams, rounds: int, options: dict) -> Para
             first.stats.update(extra_cut_tries=0, extra_cut_edges=0, extra_cut_gains=[])
             return first
         return _extend_cuts(first, seams, rounds, options)
-    base = np.zeros((0, 2), dtype=np.int64) if seams is None else np.asarray(seams, dtype=np.int64).reshape(-1, 2)
+    base = _pairs(seams)
     auto = topo.cut_edges  # mesh vertex pairs
     Vs, Fs, seams_s, options_s, used = _sub_problem(V, F, np.flatnonzero(part), np.vstack([base, auto]), options)
     sub = _parametrize(Vs, Fs, seams_s, **options_s)
@@ -334,7 +339,7 @@ def _grow(first: Parametrization, seams, rounds: int, options: dict):
     area distortion of the islands cut open before and after.
     """
     V, F = first._mesh
-    base = np.zeros((0, 2), dtype=np.int64) if seams is None else np.asarray(seams, dtype=np.int64).reshape(-1, 2)
+    base = _pairs(seams)
     isl = first.face_island
     cuts = first.cut_edges
     bad, before = area_distortion(V, F, first.corner_uv, isl, first.n_islands)
@@ -382,7 +387,7 @@ def _extend_cuts(first: Parametrization, seams, rounds: int, options: dict) -> P
     t0 = time.perf_counter()
     V, F = first._mesh
     current, cuts, tries, gains, before, score = _grow(first, seams, rounds, options)
-    base = np.zeros((0, 2), dtype=np.int64) if seams is None else np.asarray(seams, dtype=np.int64).reshape(-1, 2)
+    base = _pairs(seams)
     added = len(cuts) - len(first.cut_edges)
     best = current if current is not None else _parametrize(V, F, np.vstack([base, cuts]), **options)
     if best is not first:

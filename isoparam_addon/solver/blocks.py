@@ -46,6 +46,12 @@ class Islands:
             shape=(n_islands, len(self.small_rows)),
         )
 
+    def subset(self, which: np.ndarray):
+        """The islands flagged in ``which`` (n_islands,) bool on their own: their rows
+        (k,) int64 and the :class:`Islands` over those rows."""
+        rows = np.flatnonzero(which[self.label])
+        return rows, Islands(np.cumsum(which)[self.label[rows]] - 1, int(which.sum()))
+
     def rows(self, i: int) -> slice:
         return slice(int(self.start[i]), int(self.start[i + 1]))
 

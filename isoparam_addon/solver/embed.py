@@ -453,7 +453,6 @@ def _go_on_alone(L, X, islands: Islands, live: np.ndarray, Y: np.ndarray, tol, m
     """Step 3 for the ``live`` islands alone (their rows and columns of L: islands are
     diagonal blocks), from their current vectors ``Y``. Returns the islands, their rows
     and the :class:`Embedding` of that sub-problem."""
-    rows = np.flatnonzero(live[islands.label])
-    sub = Islands(np.cumsum(live)[islands.label[rows]] - 1, int(live.sum()))
+    rows, sub = islands.subset(live)
     L_sub = L[rows][:, rows]
     return np.flatnonzero(live), rows, spectral_embedding(L_sub, X[rows], sub, tol, max_iter, block, start=Y[rows])

@@ -558,13 +558,12 @@ def _go_on_alone(X, faces, x, islands: Islands, active, each: _PerIsland, pinned
     nested-dissection order and proxy of their own (the proxy's blocks are what they
     are in the whole, so the descent goes on as it would have). Returns their rows, the
     :class:`Refinement` and the 3D area of their faces."""
-    rows = np.flatnonzero(active[islands.label])
+    rows, sub = islands.subset(active)
     index = np.full(len(X), -1, dtype=np.int64)
     index[rows] = np.arange(len(rows))
     f = each.faces_in(active)
     F_sub = index[faces[f]]
     X_sub = np.take(X, rows, axis=0)
-    sub = Islands(np.cumsum(active)[islands.label[rows]] - 1, int(active.sum()))
     order = nested_dissection(X_sub, unique_edges(F_sub))
     result = refine(
         X_sub,
