@@ -173,6 +173,36 @@ def test_tutte_seed_never_folds():
         assert (signed_double_areas(uv, topo.faces) > 0).all()
 
 
+def test_seeds_solved_in_a_fill_reducing_order_are_the_same_seeds():
+    """lscm and tutte eliminate in Step 3's nested-dissection order when given one (their
+    vertices' components side by side): the same layout as SuperLU's own COLAMD order, on
+    the flagged islands only."""
+    from isoparam_addon.solver.blocks import Islands
+    from isoparam_addon.solver.embed import plan_elimination
+    from isoparam_addon.solver.mesh import build_topology
+    from isoparam_addon.solver.refine import FaceFrames
+    from isoparam_addon.solver.seeds import lscm, tutte
+
+    parts = [ex.peaks(25), ex.sphere_band(), ex.s_surface_random(500, 2)[:2]]
+    offset = np.cumsum([0] + [len(V) for V, _ in parts])
+    V = np.vstack([V + [3.0 * k, 0.0, 0.0] for k, (V, _) in enumerate(parts)])
+    F = np.vstack([F + o for (_, F), o in zip(parts, offset)])
+    V, F, topo = build_topology(V, F)
+    X = V[topo.vertex_of]
+    islands = Islands(topo.vertex_island, topo.n_islands)
+    plan = plan_elimination(X, topo.he.edge_vertices, islands)
+    order = np.concatenate([plan.free_order, plan.pins.ravel()])
+    which = np.array([True, False, True])
+    frames = FaceFrames(X, topo.faces)
+    for seed in (
+        lambda o: lscm(X, topo.faces, islands, frames, which, o),
+        lambda o: tutte(X, topo.faces, topo.he.twin, islands, frames, which, o),
+    ):
+        a, b = seed(None), seed(order)
+        assert np.abs(a[~which[islands.label]]).max() == 0.0 == np.abs(b[~which[islands.label]]).max()
+        assert np.abs(a - b).max() < 1e-9 * np.abs(a).max()
+
+
 def test_zero_iterations_is_the_paper_exactly():
     V, F = ex.peaks(41)
     r = parametrize(V, F, refine=0)

@@ -257,7 +257,7 @@ class _PerIsland:
         return per_island[:1] if self.k == 1 else per_island[self.face]
 
 
-def _reseed(X, faces, x, he_twin, islands, frames, each, pinned, out):
+def _reseed(X, faces, x, he_twin, islands, frames, each, pinned, out, order=None):
     """Replace the seed of islands that fold or collapse (and have no pins) by a
     conformal map, or by a Tutte embedding where that folds too. Returns the new seed and
     the islands that are still folded.
@@ -274,9 +274,9 @@ def _reseed(X, faces, x, he_twin, islands, frames, each, pinned, out):
         if not bad.any():
             break
         if name == "conformal":
-            y = lscm(X, faces, islands, frames, bad)
+            y = lscm(X, faces, islands, frames, bad, order)
         else:
-            y = tutte(X, faces, he_twin, islands, frames, bad)
+            y = tutte(X, faces, he_twin, islands, frames, bad, order)
         ok = bad & (each.face_sum(signed_double_areas(y, faces) <= floor * 2.0 * frames.area) == 0)
         x = np.where(ok[islands.label][:, None], y, x)
         out.reseeded[name] = int(ok.sum())
@@ -391,7 +391,7 @@ def refine(
     each = _PerIsland(islands, faces)
     out = Refinement(uv=np.array(uv, dtype=np.float64, copy=True))
     if carry is None:
-        x, stuck = _reseed(X, faces, out.uv, he_twin, islands, frames, each, pinned, out)
+        x, stuck = _reseed(X, faces, out.uv, he_twin, islands, frames, each, pinned, out, order)
     else:
         x, stuck = out.uv, np.zeros(islands.n, dtype=bool)
     # islands that still fold, and islands with nothing free, are left as they are

@@ -41,22 +41,40 @@ def _scale_to_area(uv, faces, islands: Islands, area3d, which):
     return uv * s[islands.label][:, None]
 
 
-def _solve_free(K, rhs, free):
-    """Solve ``K[free][:, free] x = rhs[free]`` (rhs (n, k)); zeros elsewhere."""
+def _solve_free(K, rhs, free, order=None):
+    """Solve ``K[free][:, free] x = rhs[free]`` (rhs (N, k)); zeros elsewhere.
+
+    ``order`` (n,): a fill-reducing vertex order (Step 3's nested dissection) for a
+    system of ``N = b n`` unknowns, unknown ``i + c n`` being component c of vertex i. The
+    free unknowns are then eliminated in that order, a vertex's components side by side;
+    without it SuperLU orders them with COLAMD. Measured on Suzanne subdivided 4 times
+    with Smart UV seams, the conformal map of its 11 folded islands (60k vertices): 1.08 s
+    against 0.77 s in this order (medians of 5; the same solution to 7e-9 relative).
+    """
     out = np.zeros_like(rhs)
-    if free.size:
-        A = K[free][:, free].tocsc()
-        out[free] = splu(A).solve(np.ascontiguousarray(rhs[free]))
+    if not free.size:
+        return out
+    if order is None:
+        out[free] = splu(K[free][:, free].tocsc()).solve(np.ascontiguousarray(rhs[free]))
+        return out
+    n = len(order)
+    rank = np.empty(n, dtype=np.int64)
+    rank[order] = np.arange(n)
+    free = free[np.argsort(rank[free % n] * (K.shape[0] // n) + free // n, kind="stable")]
+    A = K[free][:, free].tocsc()
+    # threshold pivoting as in Step 3: a diagonal pivot is kept unless 100x below its column's largest
+    out[free] = splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.01).solve(np.ascontiguousarray(rhs[free]))
     return out
 
 
-def lscm(X, faces, islands: Islands, frames, which: np.ndarray) -> np.ndarray:
+def lscm(X, faces, islands: Islands, frames, which: np.ndarray, order=None) -> np.ndarray:
     """Least-squares conformal map of the islands flagged in ``which`` (n_islands,) bool.
 
     Minimises ``sum_f A_f |grad u - rot90(grad v)|^2`` (the Cauchy-Riemann residual, whose
     solutions preserve orientation) with two vertices pinned per island: the extremes
     along the island's longest coordinate axis, at their 3D distance apart. Rows of other
-    islands are zero. Returns (n, 2).
+    islands are zero. ``order`` (n,): a fill-reducing vertex order for the solve. Returns
+    (n, 2).
     """
     n = len(X)
     sel_v = which[islands.label]
@@ -66,8 +84,8 @@ def lscm(X, faces, islands: Islands, frames, which: np.ndarray) -> np.ndarray:
     extent = np.maximum.reduceat(X, starts, axis=0) - np.minimum.reduceat(X, starts, axis=0)
     axis = np.argmax(extent, axis=1)
     coord = X[np.arange(n), axis[islands.label]]
-    order = np.lexsort((coord, islands.label))
-    pin_a, pin_b = order[starts], order[islands.start[1:] - 1]
+    along = np.lexsort((coord, islands.label))
+    pin_a, pin_b = along[starts], along[islands.start[1:] - 1]
     pin_a, pin_b = pin_a[which], pin_b[which]
     uv = np.zeros((n, 2))
     uv[pin_b, 0] = np.linalg.norm(X[pin_b] - X[pin_a], axis=1)
@@ -82,14 +100,15 @@ def lscm(X, faces, islands: Islands, frames, which: np.ndarray) -> np.ndarray:
     free = np.concatenate([free1, free1 + n])
     fixed = np.concatenate([pin_a, pin_b, pin_a + n, pin_b + n])
     rhs = -(K[:, fixed] @ z[fixed])
-    z = z + _solve_free(K, rhs[:, None], free)[:, 0]
+    z = z + _solve_free(K, rhs[:, None], free, order)[:, 0]
     uv = np.stack([z[:n], z[n:]], axis=1)
     return _scale_to_area(uv, faces, islands, frames.area, which)
 
 
-def tutte(X, faces, he_twin, islands: Islands, frames, which: np.ndarray) -> np.ndarray:
+def tutte(X, faces, he_twin, islands: Islands, frames, which: np.ndarray, order=None) -> np.ndarray:
     """Mean-value Tutte embedding of the islands flagged in ``which``, boundary on a
-    circle by chord length. Each island must have one boundary loop. Returns (n, 2)."""
+    circle by chord length. Each island must have one boundary loop. ``order`` (n,): a
+    fill-reducing vertex order for the solve. Returns (n, 2)."""
     n = len(X)
     sel_v = which[islands.label]
     # boundary loops: half-edge a -> b on the boundary; each island has one loop
@@ -117,16 +136,16 @@ def tutte(X, faces, he_twin, islands: Islands, frames, which: np.ndarray) -> np.
     seg = np.zeros(n)
     seg[a] = np.linalg.norm(X[b] - X[a], axis=1)  # from a to its successor
     loop_vertices = np.flatnonzero(on_loop)
-    order = loop_vertices[np.lexsort((dist[loop_vertices], islands.label[loop_vertices]))]
-    isl = islands.label[order]
-    cum = np.cumsum(seg[order])
+    loop = loop_vertices[np.lexsort((dist[loop_vertices], islands.label[loop_vertices]))]
+    isl = islands.label[loop]
+    cum = np.cumsum(seg[loop])
     first = np.searchsorted(isl, np.arange(islands.n))
     offset = np.concatenate([[0.0], cum])[first]
-    total = np.bincount(isl, seg[order], minlength=islands.n)
+    total = np.bincount(isl, seg[loop], minlength=islands.n)
     s_before = np.concatenate([[0.0], cum[:-1]]) - offset[isl]
     angle = 2 * np.pi * s_before / np.where(total[isl] > 0, total[isl], 1.0)
     uv = np.zeros((n, 2))
-    uv[order, 0], uv[order, 1] = np.cos(angle), np.sin(angle)
+    uv[loop, 0], uv[loop, 1] = np.cos(angle), np.sin(angle)
     # mean-value weights w_ij = (tan(a1/2) + tan(a2/2)) / |x_i - x_j|, all positive
     rows, cols, vals = [], [], []
     P = X[faces]
@@ -145,6 +164,6 @@ def tutte(X, faces, he_twin, islands: Islands, frames, which: np.ndarray) -> np.
     Lm = (sp.diags(np.asarray(Wm.sum(axis=1)).ravel()) - Wm).tocsr()
     fixed = np.flatnonzero(on_loop)
     rhs = -(Lm[:, fixed] @ uv[fixed])
-    uv = uv + _solve_free(Lm, rhs, np.flatnonzero(sel_v & ~on_loop))
+    uv = uv + _solve_free(Lm, rhs, np.flatnonzero(sel_v & ~on_loop), order)
     uv[~sel_v] = 0.0
     return _scale_to_area(uv, faces, islands, frames.area, which)
