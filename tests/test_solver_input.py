@@ -165,7 +165,7 @@ def test_zero_area_island_does_not_give_nan():
 
 
 @pytest.mark.parametrize("refine", [0, 100])
-def test_faces_whose_vertices_coincide_give_finite_uvs_and_leave_other_islands_alone(refine):
+def test_islands_collapsed_to_a_point_or_a_line_give_finite_uvs_and_leave_other_islands_alone(refine):
     # all-coincident points made 0/0 weights (NaN in L, then a LinAlgError in Step 3) and
     # a zero refinement proxy (SuperLU: "Factor is exactly singular")
     V, F = ex.peaks(11)
@@ -175,6 +175,10 @@ def test_faces_whose_vertices_coincide_give_finite_uvs_and_leave_other_islands_a
         (np.zeros((3, 3)), np.array([[0, 1, 2]])),
         (np.zeros((4, 3)), np.array([[0, 1, 2], [0, 2, 3]])),
         (np.vstack([V, np.full((3, 3), 0.25)]), np.vstack([F, [[n, n + 1, n + 2]]])),
+        # islands with interior vertices: their fans' MDS was 0/0 (NaN), and Step 3's LU
+        # raised "Factor is exactly singular"
+        (np.vstack([V, np.full_like(V, 0.25)]), np.vstack([F, F + n])),
+        (np.vstack([V, V[:, [0]] * [1.0, 2.0, 0.0] + 5.0]), np.vstack([F, F + n])),  # on a line
     ]
     for Vc, Fc in cases:
         r = parametrize(Vc, Fc, pack=False, refine=refine)

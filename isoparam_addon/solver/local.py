@@ -94,12 +94,22 @@ def corner_angles(X: np.ndarray, faces: np.ndarray):
 
 
 def _orthonormalize(Z: np.ndarray) -> np.ndarray:
-    """Gram-Schmidt on the two columns of stacked (p, 2, G) matrices."""
+    """Gram-Schmidt on the two columns of stacked (p, 2, G) matrices.
+
+    A column with nothing left (a fan collapsed onto a line or a point: B has rank 1 or
+    0) becomes zero, not 0/0: its MDS coordinate is then 0, which is the fan's second
+    (or first) coordinate."""
     a = Z[:, 0]
-    a = a / np.sqrt((a * a).sum(axis=0))
+    a = a / _norm_or_one(a)
     b = Z[:, 1] - (a * Z[:, 1]).sum(axis=0) * a
-    b = b / np.sqrt((b * b).sum(axis=0))
+    b = b / _norm_or_one(b)
     return np.stack([a, b], axis=1)
+
+
+def _norm_or_one(a: np.ndarray) -> np.ndarray:
+    """Column norms of (p, G), 1 where a column is (to rounding) zero."""
+    norm = np.sqrt((a * a).sum(axis=0))
+    return np.where(norm > 1e-150, norm, 1.0)
 
 
 def _mds_top2(B: np.ndarray, start: np.ndarray, tol: float = 1e-12, max_iter: int = 4) -> np.ndarray:
