@@ -137,3 +137,29 @@ def test_uv_selection_locks_unselected_uvs_when_asked(scene):
     assert np.array_equal(sel.locked, ~picked)
     sel = mesh_io.read_selection(ob, world_space=False, uv_selection_locks=False)
     assert not sel.locked.any()
+
+
+@pytest.mark.parametrize("collapse", ["point", "line"])
+def test_a_part_scaled_to_a_point_or_a_line_is_unwrapped_with_the_rest(scene, collapse):
+    # an artist's "scale by 0": its fans' MDS was 0/0, and the operator failed with
+    # "Factor is exactly singular"
+    V, F = ex.peaks(9)
+    flat = np.full_like(V, 3.0) if collapse == "point" else V[:, [0]] * [1.0, 2.0, 0.0] + 3.0
+    ob = add_mesh("collapsed", np.vstack([V, flat]), np.vstack([F, F + len(V)]))
+    edit(ob)
+    assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
+    object_mode()
+    uv = corner_uvs(ob)
+    assert np.isfinite(uv).all()
+    # the intact island is laid out as it is alone (to a scale: the packing differs)
+    alone = add_mesh("alone", V, F)
+    edit(alone)
+    assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
+    object_mode()
+
+    def spread(uv):  # of UV over 3D edge length
+        c = uv[: 3 * len(F)].reshape(-1, 3, 2)
+        r = np.linalg.norm(c - c[:, [1, 2, 0]], axis=2) / np.linalg.norm(V[F] - V[F][:, [1, 2, 0]], axis=2)
+        return r.std() / r.mean()
+
+    assert abs(spread(uv) - spread(corner_uvs(alone))) < 1e-3
