@@ -131,19 +131,27 @@ def place(Y, islands: Islands, pack: bool = True, margin: float = 0.02, fixed=No
     Yr *= islands.expand(turn)[:, None]
     if fixed.any():
         Yr = np.where(fixed[islands.label][:, None], Y, Yr)
-    if pack and not fixed.all():
-        lo = np.minimum.reduceat(Yr, islands.start[:-1], axis=0)  # islands are contiguous row blocks
-        hi = np.maximum.reduceat(Yr, islands.start[:-1], axis=0)
-        size = hi - lo
-        gap = margin * np.sqrt(max(float(np.prod(size, axis=1).sum()), 1e-300))
-        free = np.flatnonzero(~fixed)
-        corner = np.zeros((nI, 2))
-        corner[free] = _shelves(size[free], gap)
-        if fixed.any():  # the free islands go to the right of the pinned ones
-            corner[free] += [hi[fixed, 0].max() + gap, lo[fixed, 1].min()]
-        shift = np.where(fixed[:, None], 0.0, corner - lo)
-        Yr = Yr + islands.expand(shift)
-    return Yr
+    return pack_islands(Yr, islands, margin, fixed) if pack else Yr
+
+
+def pack_islands(Y, islands: Islands, margin: float = 0.02, fixed=None):
+    """Shift the islands of ``Y`` (n, 2) onto shelves, without turning them (the packing
+    step of :func:`place`). Islands in ``fixed`` (n_islands,) bool stay where they are."""
+    nI = islands.n
+    fixed = np.zeros(nI, dtype=bool) if fixed is None else fixed
+    if fixed.all():
+        return Y
+    lo = np.minimum.reduceat(Y, islands.start[:-1], axis=0)  # islands are contiguous row blocks
+    hi = np.maximum.reduceat(Y, islands.start[:-1], axis=0)
+    size = hi - lo
+    gap = margin * np.sqrt(max(float(np.prod(size, axis=1).sum()), 1e-300))
+    free = np.flatnonzero(~fixed)
+    corner = np.zeros((nI, 2))
+    corner[free] = _shelves(size[free], gap)
+    if fixed.any():  # the free islands go to the right of the pinned ones
+        corner[free] += [hi[fixed, 0].max() + gap, lo[fixed, 1].min()]
+    shift = np.where(fixed[:, None], 0.0, corner - lo)
+    return Y + islands.expand(shift)
 
 
 def _shelves(size: np.ndarray, gap: float) -> np.ndarray:

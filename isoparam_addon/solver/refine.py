@@ -172,11 +172,15 @@ class Refinement:
         Descent iterations.
     arap_iterations : int
     reseeded : dict
-        Islands whose seed folded, by the layout that replaced it: ``{"conformal": k,
-        "tutte": j}``.
+        Islands whose seed folded, by the layout that replaced it: ``{"conformal": c,
+        "tutte": t}``, (n_islands,) bool each.
     folded : int
         Faces still folded at the end: 0 unless an island's seed folded and could not be
         replaced (it has pins, or even its Tutte embedding folded).
+    island_energy, island_area : (n_islands,) float64
+        At the end, per island: the energy (``sum_f A_f E_f``) and the 3D area of its
+        faces that were refined (0 for islands left alone), so that the last ``energy``
+        is ``island_energy.sum() / island_area.sum()``.
     seconds : float
     """
 
@@ -184,8 +188,10 @@ class Refinement:
     energy: list = field(default_factory=list)
     iterations: int = 0
     arap_iterations: int = 0
-    reseeded: dict = field(default_factory=lambda: {"conformal": 0, "tutte": 0})
+    reseeded: dict = field(default_factory=dict)
     folded: int = 0
+    island_energy: np.ndarray = None
+    island_area: np.ndarray = None
     seconds: float = 0.0
 
 
@@ -279,7 +285,7 @@ def _reseed(X, faces, x, he_twin, islands, frames, each, pinned, out, order=None
             y = tutte(X, faces, he_twin, islands, frames, bad, order)
         ok = bad & (each.face_sum(signed_double_areas(y, faces) <= floor * 2.0 * frames.area) == 0)
         x = np.where(ok[islands.label][:, None], y, x)
-        out.reseeded[name] = int(ok.sum())
+        out.reseeded[name] = ok
         bad &= ~ok
     return x, each.face_sum(signed_double_areas(x, faces) <= 0) > 0
 
@@ -390,6 +396,7 @@ def refine(
     area = frames.area
     each = _PerIsland(islands, faces)
     out = Refinement(uv=np.array(uv, dtype=np.float64, copy=True))
+    out.reseeded = {name: np.zeros(islands.n, dtype=bool) for name in ("conformal", "tutte")}
     if carry is None:
         x, stuck = _reseed(X, faces, out.uv, he_twin, islands, frames, each, pinned, out, order)
     else:
@@ -541,12 +548,15 @@ def refine(
             )
             x = x.copy()
             x[rows] = sub.uv
+            E = E.copy()
+            E[active] = sub.island_energy
             # the energy over every live face: the islands handed over, the others as they stopped
             rest = float(E[~active].sum())
             out.energy += [(rest + e * sub_area) / live_area for e in sub.energy[1:]]
             out.iterations = it + sub.iterations
             break
     out.uv = x
+    out.island_energy, out.island_area = E, each.face_sum(np.where(live_face, area, 0.0))
     out.folded = int((signed_double_areas(x, faces) <= 0).sum())
     out.seconds = time.perf_counter() - t0
     return out

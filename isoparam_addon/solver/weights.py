@@ -163,9 +163,9 @@ def reconstruction_weights(X, faces, twin, patches: list[Patch], n: int):
     -------
     L : (n, n) scipy.sparse.csr_matrix
         ``I - W``; every row sums to zero.
-    stats : dict
-        ``extra_vertex``: centres that borrowed a vertex; ``regularized``: centres left
-        with regularised weights (no face to borrow from).
+    flagged : dict
+        ``extra_vertex``: the centres that borrowed a vertex; ``regularized``: the
+        centres left with regularised weights (no face to borrow from); (k,) int64 each.
     """
     rows, cols, vals = [np.arange(n)], [np.arange(n)], [np.ones(n)]
 
@@ -174,7 +174,7 @@ def reconstruction_weights(X, faces, twin, patches: list[Patch], n: int):
         cols.append(nb.ravel())
         vals.append(-W.ravel())
 
-    n_extra = n_reg = 0
+    borrowed, regularized = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)]
     for patch in patches:
         P = patch.coords[:, 1:] - patch.coords[:, :1]
         W, bad = _affine_weights(P)
@@ -193,9 +193,9 @@ def reconstruction_weights(X, faces, twin, patches: list[Patch], n: int):
             W_aug, still = _affine_weights(P_aug)
             good = ~still if extra else np.zeros(len(sub), dtype=bool)
             emit(patch.vertex[idx[sub[good]]], nb_aug[good], W_aug[good])
-            n_extra += int(good.sum())
+            borrowed.append(patch.vertex[idx[sub[good]]])
             W_reg, _ = _affine_weights(P_aug[~good], reg=1e-8)
             emit(patch.vertex[idx[sub[~good]]], nb_aug[~good], W_reg)
-            n_reg += int((~good).sum())
+            regularized.append(patch.vertex[idx[sub[~good]]])
     L = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
-    return L, {"extra_vertex": n_extra, "regularized": n_reg}
+    return L, {"extra_vertex": np.concatenate(borrowed), "regularized": np.concatenate(regularized)}
