@@ -35,7 +35,7 @@ STEPS = [
     ("embedding.iterations", "step 3: iterations"),
     ("align", "step 4 + placement"),
     ("refine", "refinement"),
-    ("extra_cuts", "extra cuts (tries + final solve)"),
+    ("extra_cuts", "extra cuts (tries + merge)"),
     ("total", "total"),
 ]
 

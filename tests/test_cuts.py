@@ -224,24 +224,34 @@ def test_extra_cuts_start_from_the_whole_meshs_cut_and_check_pins_on_it():
         parametrize(V, F, pins=(corners[:-1], uv[:-1]), extra_cuts=3)
 
 
-@pytest.mark.parametrize("pack", [True, False])
-@pytest.mark.parametrize("refine", [0, 100])
-def test_a_merged_result_is_the_whole_mesh_solved_with_the_cuts_kept(pack, refine):
-    # two closed boxes that stop growing at different tries, beside a pinned disk: each
-    # island comes from the last try that kept its cut (or from the first solve), and the
-    # merge is the whole mesh solved with those cuts: layout, packing, pins, warnings
+def two_boxes_and_a_disk():
+    """Two closed boxes (that stop growing at different tries with refine=100) beside a
+    disk, their polygon diagonals, and the disk's faces."""
     (Va, Fa, Da), (Vb, Fb, Db), (Vp, Fp) = ex.box(6), ex.box(3), ex.peaks(9)
     V = np.vstack([Va, Vb * 0.5 + [4.0, 0.0, 0.0], Vp + [0.0, 5.0, 0.0]])
     F = np.vstack([Fa, Fb + len(Va), Fp + len(Va) + len(Vb)])
-    D = np.vstack([Da, Db + len(Va)])
+    return V, F, np.vstack([Da, Db + len(Va)]), np.arange(len(Fa) + len(Fb), len(F))
+
+
+def pinned(F, at, where):
     corners, uv = np.zeros((len(F), 3), dtype=bool), np.zeros((len(F), 3, 2))
-    disk = np.arange(len(Fa) + len(Fb), len(F))
-    corners[disk[0], 0], uv[disk[0], 0] = True, [10.0, -3.0]
-    corners[disk[-1], 1], uv[disk[-1], 1] = True, [12.0, -3.5]
-    options = dict(refine=refine, inner_edges=D, pins=(corners, uv), pack=pack)
+    for (f, k), p in zip(at, where):
+        corners[f, k], uv[f, k] = True, p
+    return corners, uv
+
+
+@pytest.mark.parametrize("pack", [True, False])
+@pytest.mark.parametrize("refine", [0, 100])
+def test_a_merged_result_is_the_whole_mesh_solved_with_the_cuts_kept(pack, refine):
+    # each island comes from the last try that kept its cut (or from the first solve),
+    # and the merge is the whole mesh solved with those cuts: layout, packing, pins (two,
+    # on the disk: they place it, refine=0), warnings, counters
+    V, F, D, disk = two_boxes_and_a_disk()
+    pins = pinned(F, [(disk[0], 0), (disk[-1], 1)], [[10.0, -3.0], [12.0, -3.5]]) if not refine else None
+    options = dict(refine=refine, inner_edges=D, pins=pins, pack=pack)
     r = parametrize(V, F, extra_cuts=6, **options)
     gains = r.stats["extra_cut_gains"]
-    assert r.stats["extra_cut_edges"] > 0 and len(gains) >= 2
+    assert r.stats["extra_cut_edges"] > 0 and len(gains) >= (4 if refine else 2)
     assert r.timings["merge"] > 0  # not a try that covered the whole mesh
     again = parametrize(V, F, r.cut_edges, **options)
     assert r.n_islands == again.n_islands == 3 and np.array_equal(r.face_island, again.face_island)
@@ -256,5 +266,23 @@ def test_a_merged_result_is_the_whole_mesh_solved_with_the_cuts_kept(pack, refin
     if refine:
         assert r.stats["reseeded"] == again.stats["reseeded"]
         assert r.stats["refine_energy"][-1] == pytest.approx(again.stats["refine_energy"][-1], rel=1e-9)
-    # the pins hold: the disk stays in their frame
-    assert np.allclose(r.corner_uv[disk[0], 0], [10.0, -3.0]) and np.allclose(r.corner_uv[disk[-1], 1], [12.0, -3.5])
+    else:  # the pins hold: the disk stays in their frame
+        assert np.allclose(r.corner_uv[disk[0], 0], [10.0, -3.0])
+        assert np.allclose(r.corner_uv[disk[-1], 1], [12.0, -3.5])
+
+
+def test_islands_shaped_by_pins_are_refined_with_the_whole_mesh_after_extra_cuts():
+    # three pins shape an island, and the refinement moves every such island onto its
+    # pins together (one step length, one fold test): a try alone would take another
+    # path, so the result is the whole mesh solved with the cuts kept (found in review)
+    V, F, D, _ = two_boxes_and_a_disk()
+    p = V[F[5]]  # a face of the large box, pinned in its true shape (found by helper review)
+    e1 = (p[1] - p[0]) / np.linalg.norm(p[1] - p[0])
+    e2 = np.cross(np.cross(p[1] - p[0], p[2] - p[0]), e1)
+    e2 /= np.linalg.norm(e2)
+    pins = pinned(F, [(5, 0), (5, 1), (5, 2)], np.stack([(p - p[0]) @ e1, (p - p[0]) @ e2], 1) + [20.0, 3.0])
+    options = dict(refine=100, inner_edges=D, pins=pins, pack=False)
+    r = parametrize(V, F, extra_cuts=6, **options)
+    assert r.stats["extra_cut_edges"] > 0 and "merge" not in r.timings
+    again = parametrize(V, F, r.cut_edges, **options)
+    assert np.array_equal(again.corner_uv, r.corner_uv) and r.warnings[2:] == again.warnings
