@@ -6,6 +6,13 @@ product for all the small ones together, and a per-island change of basis ``V_i 
 is a handful of vector operations. No loop runs over vertices; the loop over large
 islands is bounded by n / ``_LARGE``.
 
+The small islands are grouped by size (powers of two) and each group is gathered into a
+stack of zero-padded ``(size, p)`` blocks, so that their Gram matrices and changes of
+basis are one stacked ``matmul`` per group (at most 11 groups), with at most twice the
+rows gathered. An outer product per row (``(n, p * q)``, 87 MB for 9 x 9 columns of
+134k rows) summed by a sparse indicator took 2-3x as long (Suzanne subdivided 4 times,
+344 Smart UV islands).
+
 ``np.dot`` rather than ``@``: in numpy 1.26 (Blender's), ``(100000, 9) @ (9, 2)`` takes
 8 ms against 0.7 ms for ``np.dot`` (measured here).
 """
@@ -45,6 +52,26 @@ class Islands:
             (np.ones(len(self.small_rows)), (label[self.small_rows], np.arange(len(self.small_rows)))),
             shape=(n_islands, len(self.small_rows)),
         )
+        self._groups = self._group_small()
+
+    def _group_small(self) -> list:
+        """The small islands with rows, by size class (sizes in (2^(c-1), 2^c]): per
+        class, the islands (k,), their rows padded to the class's largest (k, s) (the
+        padding repeats an island's first row), the padding mask (k, s, 1) float (1 on
+        real rows) and which entries are real (k, s) bool."""
+        small = np.flatnonzero((self.size > 0) & (self.size <= _LARGE))
+        if not small.size:
+            return []
+        cls = np.ceil(np.log2(self.size[small])).astype(np.int64)
+        groups = []
+        for c in np.unique(cls):  # at most log2(_LARGE) + 1 classes
+            ids = small[cls == c]
+            size = self.size[ids]
+            t = np.arange(int(size.max()))
+            real = t < size[:, None]
+            rows = self.start[ids][:, None] + np.where(real, t, 0)
+            groups.append((ids, rows, real[:, :, None].astype(np.float64), real))
+        return groups
 
     def subset(self, which: np.ndarray):
         """The islands flagged in ``which`` (n_islands,) bool on their own: their rows
@@ -76,10 +103,11 @@ class Islands:
         """
         p, q = A.shape[1], B.shape[1]
         out = np.zeros((self.n, p, q))
-        if self.small_rows.size:
-            As, Bs = A[self.small_rows], B[self.small_rows]
-            outer = (As[:, :, None] * Bs[:, None, :]).reshape(len(As), p * q)
-            out += (self.small_indicator @ outer).reshape(self.n, p, q)
+        if self._groups:  # np.take copies a strided source whole on every call
+            A, B = np.ascontiguousarray(A), np.ascontiguousarray(B)
+        for ids, rows, pad, _ in self._groups:
+            Ag = np.take(A, rows, axis=0) * pad  # (k, s, p), zero on the padding
+            out[ids] = np.matmul(Ag.transpose(0, 2, 1), np.take(B, rows, axis=0))
         for i in self.large if large else ():
             r = self.rows(i)
             out[i] = np.dot(A[r].T, B[r])
@@ -88,11 +116,10 @@ class Islands:
     def apply(self, V: np.ndarray, T: np.ndarray) -> np.ndarray:
         """Per-island ``V_i T_i``: (n, p), (n_islands, p, q) -> (n, q)."""
         out = np.zeros((len(V), T.shape[2]))
-        if self.small_rows.size:
-            rows = self.small_rows
-            lab = self.label[rows]
-            Tl = np.take(T, lab, axis=0)
-            out[rows] = np.einsum("rk,rkq->rq", V[rows], Tl)
+        if self._groups:
+            V = np.ascontiguousarray(V)
+        for ids, rows, _, real in self._groups:
+            out[rows[real]] = np.matmul(np.take(V, rows, axis=0), T[ids])[real]
         for i in self.large:
             r = self.rows(i)
             out[r] = np.dot(V[r], T[i])
