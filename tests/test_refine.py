@@ -159,6 +159,35 @@ def test_conformal_seed_is_a_similarity_on_a_developable_mesh():
     assert procrustes_error(U, uv) < 1e-9
 
 
+def test_conformal_seed_is_stationary_for_the_cauchy_riemann_energy_but_at_two_pins():
+    """On curved islands the conformal seed minimises sum_f A_f ((u_x - v_y)^2 + (u_y + v_x)^2)
+    with two vertices per island held: the energy's gradient (the real 2n-unknown form)
+    vanishes at every other vertex of the flagged island, and the other island's rows are
+    zero."""
+    import scipy.sparse as sp
+
+    from isoparam_addon.solver.blocks import Islands
+    from isoparam_addon.solver.mesh import build_topology
+    from isoparam_addon.solver.refine import FaceFrames
+    from isoparam_addon.solver.seeds import lscm
+
+    (Va, Fa), (Vb, Fb) = ex.peaks(15), ex.spherical_cap(8)
+    V, F, topo = build_topology(np.vstack([Va, Vb + 3.0]), np.vstack([Fa, Fb + len(Va)]))
+    X = V[topo.vertex_of]
+    islands = Islands(topo.vertex_island, topo.n_islands)
+    frames = FaceFrames(X, topo.faces)
+    uv = lscm(X, topo.faces, islands, frames, np.array([True, False]))
+    w = sp.diags(np.sqrt(frames.area))
+    Dx, Dy = w @ frames.Dx, w @ frames.Dy
+    A = sp.bmat([[Dx, -Dy], [Dy, Dx]]).tocsr()
+    grad = (A.T @ (A @ np.concatenate([uv[:, 0], uv[:, 1]]))).reshape(2, -1).T
+    first = islands.rows(0)
+    held = np.linalg.norm(grad[first], axis=1) > 1e-9 * np.abs(uv[first]).max()
+    assert held.sum() == 2  # the two pins
+    assert np.abs(uv[islands.rows(1)]).max() == 0.0
+    assert (np.abs(uv[first]).max(axis=0) > 0.1).all()  # a layout, not a point
+
+
 def test_tutte_seed_never_folds():
     from isoparam_addon.solver.blocks import Islands
     from isoparam_addon.solver.mesh import build_topology
