@@ -203,9 +203,8 @@ def test_tutte_seed_never_folds():
 
 
 def test_seeds_solved_in_a_fill_reducing_order_are_the_same_seeds():
-    """lscm and tutte eliminate in Step 3's nested-dissection order when given one (their
-    vertices' components side by side): the same layout as SuperLU's own COLAMD order, on
-    the flagged islands only."""
+    """lscm and tutte eliminate in Step 3's nested-dissection order when given one: the
+    same layout as SuperLU's own COLAMD order, on the flagged islands only."""
     from isoparam_addon.solver.blocks import Islands
     from isoparam_addon.solver.embed import plan_elimination
     from isoparam_addon.solver.mesh import build_topology
