@@ -204,3 +204,17 @@ def test_half_edges_take_int32_faces():
     V, F = ex.peaks(9)
     assert np.array_equal(unique_edges(F.astype(np.int32)), unique_edges(F))
     assert unique_edges(F.astype(np.int32)).dtype == np.int64
+
+
+def test_an_islands_automatic_cut_does_not_depend_on_the_disks_beside_it():
+    # the cut graph runs on the faces of the islands being cut alone: selecting another
+    # object with a closed one must not move the closed one's seam (ties between equal
+    # paths were broken by edge lengths taken over the whole mesh before)
+    Vp, Fp = ex.peaks(15)
+    Vp = 64.0 * Vp  # longer edges beside; a power of two keeps the scaled lengths exact
+    for Vc, Fc in (ex.sphere(2)[:2], ex.annulus()[:2], ex.torus(20, 8)[:2]):
+        alone = build_topology(Vc, Fc)[2]
+        V, F = np.vstack([Vp, Vc, Vp]), np.vstack([Fp, Fc + len(Vp), Fp + len(Vp) + len(Vc)])
+        beside = build_topology(V, F)[2]
+        assert alone.cut_islands.tolist() == [0] and beside.cut_islands.tolist() == [1]
+        np.testing.assert_array_equal(beside.cut_edges - len(Vp), alone.cut_edges)

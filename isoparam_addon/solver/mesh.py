@@ -374,6 +374,10 @@ def _seam_mask(he: HalfEdges, n: int, seams, what: str = "seams") -> np.ndarray:
     return mask
 
 
+def _face_areas(X: np.ndarray, F: np.ndarray) -> np.ndarray:
+    return 0.5 * np.linalg.norm(np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]), axis=1)
+
+
 def _orientation(F, he, face_island, n_islands, area, tree_only=None):
     """Choose a consistent orientation per island.
 
@@ -399,6 +403,7 @@ def _orientation(F, he, face_island, n_islands, area, tree_only=None):
     _, lab = csgraph.connected_components(graph, directed=False)
     root = np.full(n_islands, m, dtype=np.int64)
     np.minimum.at(root, face_island, np.arange(m))
+    root = np.minimum(root, m - 1)  # islands with no face here: any face, never read
     orientable = lab[root] != lab[root + m]
     flip = lab[np.arange(m)] != lab[root[face_island]]
     kept = np.bincount(face_island, weights=np.where(flip, 0.0, area), minlength=n_islands)
@@ -477,16 +482,12 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
     face_island = _face_components(m, he, np.zeros(he.n_edges, dtype=bool))
     n_islands = int(face_island.max()) + 1
     Vu = V / unit_of(V)  # areas and lengths below only compare with each other
-
-    def face_areas():  # only for orienting and cutting
-        return 0.5 * np.linalg.norm(np.cross(Vu[F[:, 1]] - Vu[F[:, 0]], Vu[F[:, 2]] - Vu[F[:, 0]]), axis=1)
-
-    area = None
+    area = None  # only for orienting
     # the fans of validation were walked because F was consistently oriented
     if (Fs is F and fan0 is not None) or he.consistent(Fs):
         flip, orientable = np.zeros(m, dtype=bool), np.ones(n_islands, dtype=bool)
     else:  # pragma: no branch
-        area = face_areas()
+        area = _face_areas(Vu, F)
         flip, orientable = _orientation(Fs, he, face_island, n_islands, area)
     chi, n_loops = _island_counts(Fs, ns, he, face_island, n_islands)
     disk = orientable & (chi == 1) & (n_loops == 1)
@@ -501,25 +502,9 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
             multi=np.flatnonzero(~disk & (n_loops > 1)),
             nonorientable=np.flatnonzero(~orientable),
         )
-        keys = np.flatnonzero(inner)
-        if keys.size:  # the same edges over the split vertices
-            ev0 = he0.edge_vertices[keys]
-            ev = np.sort(vertex_of[he.edge_vertices], axis=1)
-            inner = np.isin(ev[:, 0] * np.int64(n) + ev[:, 1], ev0[:, 0] * np.int64(n) + ev0[:, 1])
-        else:
-            inner = np.zeros(he.n_edges, dtype=bool)
-        area = face_areas() if area is None else area
-        cut = _cut_graph(Vu[vertex_of], Fs, he, face_island, ~disk, area, inner)
-        flip = _orient_cut(Fs, he, face_island, n_islands, area, cut, flip, ~disk)
-        Fs2, vertex_of2 = _split(Fs, ns, cut, he)
-        cut_edges = np.sort(vertex_of[he.edge_vertices[cut]], axis=1)
-        Fs, vertex_of = Fs2, vertex_of[vertex_of2]
+        Fs, vertex_of, flip, cut_edges = _cut_islands(Vu, Fs, vertex_of, he, he0, face_island, ~disk, area, inner, flip)
         ns = len(vertex_of)
-        he = HalfEdges(Fs, ns)
-        chi, n_loops = _island_counts(Fs, ns, he, face_island, n_islands)
-        still = np.flatnonzero((chi != 1) | (n_loops != 1))
-        if still.size:  # pragma: no cover - a bug guard, the cut graph makes disks
-            raise RuntimeError(f"cutting islands {still.tolist()} did not give disks")
+        he = None  # rebuilt below, once the faces are numbered and oriented
     # number the split vertices island by island
     vertex_island = np.empty(ns, dtype=np.int64)
     vertex_island[Fs.ravel()] = np.repeat(face_island, 3)
@@ -528,12 +513,14 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
         rank = np.empty_like(order)
         rank[order] = np.arange(ns)
         Fs, vertex_of, vertex_island = rank[Fs], vertex_of[order], vertex_island[order]
-        he = he.relabel(rank)
-    if flip.any():
-        oriented = np.where(flip[:, None], Fs[:, ::-1], Fs)
-        he_oriented = HalfEdges(oriented, ns)
-    else:
-        oriented, he_oriented = Fs, he
+        he = None if he is None else he.relabel(rank)
+    oriented = np.where(flip[:, None], Fs[:, ::-1], Fs) if flip.any() else Fs
+    he_oriented = he if he is not None and oriented is Fs else HalfEdges(oriented, ns)
+    if cut_islands.size:
+        chi, n_loops = _island_counts(oriented, ns, he_oriented, face_island, n_islands)
+        still = np.flatnonzero((chi != 1) | (n_loops != 1))
+        if still.size:  # pragma: no cover - a bug guard, the cut graph makes disks
+            raise RuntimeError(f"cutting islands {still.tolist()} did not give disks")
     unchanged = fan0 is not None and oriented is F
     fan = fan0 if unchanged else fans(oriented, he_oriented.twin, ns)
     return (
@@ -560,6 +547,54 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
 
 
 # --------------------------------------------------------------------------- cutting to disks
+
+
+def _cut_islands(Vu, Fs, vertex_of, he, he0, face_island, todo, area, inner, flip):
+    """Cut the islands in ``todo`` into disks, working on their faces alone.
+
+    The cut graph, the orientation along it and the split run on the sub-mesh of the
+    faces to cut (often a few islands of many); the other islands keep their vertices.
+    Split vertices keep the order of :func:`_split` on the whole mesh: by old split
+    vertex, then by first corner, both increasing in the sub-mesh's numbering. Lengths
+    are compared within the sub-mesh only, so the disks beside an island never break a
+    tie between two of its equally short cuts.
+
+    Returns ``(Fs, vertex_of, flip, cut_edges)`` for the whole mesh; ``cut_edges`` are
+    input-vertex pairs, sorted like the undirected edges they were.
+    """
+    ns, m = len(vertex_of), len(Fs)
+    sub = np.flatnonzero(todo[face_island])
+    whole = len(sub) == m
+    used = np.zeros(ns, dtype=bool)
+    used[Fs[sub].ravel()] = True
+    sv = np.arange(ns) if whole else np.flatnonzero(used)
+    rank = np.cumsum(used, dtype=np.int64) - 1
+    Fsub = Fs if whole else rank[Fs[sub]]
+    hsub = he if whole else HalfEdges(Fsub, len(sv))
+    isl_sub = face_island[sub]
+    keys = np.flatnonzero(inner)
+    inner_sub = np.zeros(hsub.n_edges, dtype=bool)
+    if keys.size:  # the same edges over the sub-mesh's vertices
+        n = len(Vu)
+        ev0 = he0.edge_vertices[keys]
+        ev = np.sort(vertex_of[sv[hsub.edge_vertices]], axis=1)
+        inner_sub = np.isin(ev[:, 0] * np.int64(n) + ev[:, 1], ev0[:, 0] * np.int64(n) + ev0[:, 1])
+    n_islands = len(todo)
+    X = Vu[vertex_of[sv]]
+    cut = _cut_graph(X, Fsub, hsub, isl_sub, todo, inner_sub)
+    area = _face_areas(X, Fsub) if area is None else area[sub]
+    flip = flip.copy()
+    flip[sub] = _orient_cut(Fsub, hsub, isl_sub, n_islands, area, cut, flip[sub], todo)
+    F2, of2 = _split(Fsub, len(sv), cut, hsub)
+    cut_edges = np.sort(vertex_of[sv[hsub.edge_vertices[cut]]], axis=1)
+    if whole:
+        return F2, vertex_of[of2], flip, cut_edges
+    keep = np.flatnonzero(~used)  # the other islands' vertices, first and in order
+    new_id = np.empty(ns, dtype=np.int64)
+    new_id[keep] = np.arange(len(keep))
+    out = new_id[Fs]
+    out[sub] = F2 + len(keep)
+    return out, np.concatenate([vertex_of[keep], vertex_of[sv[of2]]]), flip, cut_edges
 
 
 def _two_core(ns: int, edges: np.ndarray) -> np.ndarray:
@@ -623,7 +658,7 @@ def _two_core(ns: int, edges: np.ndarray) -> np.ndarray:
     return ~is_tree | ((inside > 0.5) & (outside > 0.5))
 
 
-def _cut_graph(X, Fs, he, face_island, todo, area, inner):
+def _cut_graph(X, Fs, he, face_island, todo, inner):
     """Edges to cut so that every island in ``todo`` becomes a topological disk.
 
     Tree-cotree with shortest paths, after Erickson & Whittlesey (2005), "Greedy optimal
