@@ -263,6 +263,24 @@ def test_pins_hold(refine):
         assert metrics.flipped(V, F, r.corner_uv) == 0  # four pins shape the island; no folds
 
 
+@pytest.mark.parametrize("refine", [0, 100])
+def test_one_pin_moves_the_free_layout_without_turning_it(refine):
+    # one pin says where an island goes, not how it turns: it takes the frame an unpinned
+    # island gets (principal axes), so pinning a vertex and unwrapping again moves the
+    # island without turning it, and so does turning the mesh in 3D (the eigenvectors'
+    # frame, used before, turned by quarter and half turns with both)
+    from scipy.spatial.transform import Rotation
+
+    V, F = ex.peaks(15)
+    free = parametrize(V, F, refine=refine)
+    turns = Rotation.random(3, random_state=3).as_matrix() if refine == 0 else [np.eye(3)]
+    for R in turns:
+        r = parametrize(V @ R.T, F, refine=refine, pins=_pins(F, {5: (0.25, -1.0)}))
+        assert np.abs(r.uv[5] - [0.25, -1.0]).max() == 0.0
+        shift = r.uv - free.uv
+        assert np.ptp(shift, axis=0).max() < 1e-9 * np.ptp(free.uv)
+
+
 def test_two_pins_fix_placement_rotation_and_scale_only():
     V, F = ex.peaks(21)
     free = parametrize(V, F, refine=100)

@@ -203,7 +203,9 @@ def parametrize(
     pins : (corners (m, 3) bool, uv (m, 3, 2) float), optional
         Face corners whose UV is given. An island with pins is fitted to them (rotation,
         scale and shift from two pins on, shift from one); refinement keeps them fixed,
-        so three or more also shape the island. Pinned islands keep the pins' frame.
+        so three or more also shape the island. Islands with two or more pins on distinct
+        UVs keep the pins' frame; one pin (or pins on one UV) moves the island without
+        turning it from an unpinned island's frame.
     extra_cuts : int
         Islands that had to be cut automatically (closed, handles, holes) get up to this
         many more cuts, each the shortest path from the island's boundary to its most
@@ -579,6 +581,12 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
             info, reached = refine_to_pins(run, Y, faces_i, shaping, local, islands)
             Y = info.uv
         Y = similarity(Y, islands, *fit[:3])
+        # pins on one UV give no rotation: those islands take the frame unpinned islands
+        # get (principal axes), not the eigenvectors', which is arbitrary up to a half
+        # turn and turned with the mesh in 3D; the refit below moves them onto the pins
+        unturned = (distinct == 1) | one_point
+        if unturned.any():
+            Y = np.where(unturned[islands.label][:, None], place(Y, islands, pack=False), Y)
         refit = fit_to_pins(Y, pinned, target, islands)  # islands with one or two pins: exact
         light = ((count <= 2) | one_point)[islands.label][:, None]  # not shaped: fitted again
         Y = np.where(light, similarity(Y, islands, *refit[:3]), Y)

@@ -1,10 +1,11 @@
 """Pinned UVs: where they come from, and fitting an island to them.
 
-As in Blender: one pin places an island, two also fix its rotation and scale (a
-similarity fit), and with refinement three or more also shape it (the pins become
-Dirichlet constraints of :func:`.refine.refine`). Before refining, the pins are moved
-onto their targets by a harmonic deformation of the fitted layout, so the descent
-starts with every pin in place (in stages if one move would fold, see
+As in Blender: one pin places an island (turned as an unpinned island is, to its
+principal axes), two also fix its rotation and scale (a similarity fit), and with
+refinement three or more also shape it (the pins become Dirichlet constraints of
+:func:`.refine.refine`). Before refining, the pins are moved onto their targets by a
+harmonic deformation of the fitted layout, so the descent starts with every pin in
+place (in stages if one move would fold, see
 :func:`refine_to_pins`).
 """
 
