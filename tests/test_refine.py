@@ -443,3 +443,16 @@ def test_each_island_moves_onto_its_pins_with_its_own_step():
     assert not np.allclose(first[pinned][:3], target[pinned][:3])
     assert 1 < len(calls) <= 8  # island 0 tried again, within the budget of halvings and refinements
     assert np.abs(info.uv[25:] - target[25:]).max() < 1e-9
+
+
+def test_per_island_values_spread_over_the_rows_of_their_islands():
+    from isoparam_addon.solver.blocks import Islands
+    from isoparam_addon.solver.refine import _PerIsland
+
+    label = np.repeat([0, 2, 3], [3, 5, 1])  # island 1 has no rows
+    faces = np.array([[0, 1, 2], [3, 4, 5], [5, 6, 7]])
+    each = _PerIsland(Islands(label, 4), faces)
+    for per_island in (np.array([1.5, -2.0, 3.0, 4.0]), np.array([True, False, False, True])):
+        spread = each.rows(per_island)
+        assert spread.shape == (9, 2) and spread.dtype == per_island.dtype
+        np.testing.assert_array_equal(spread, np.broadcast_to(per_island[label][:, None], (9, 2)))

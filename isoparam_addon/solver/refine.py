@@ -208,6 +208,7 @@ class _PerIsland:
         self._face_order = order
         self._face_start = np.searchsorted(self.face[order], np.arange(self.k))
         self._has_faces = np.bincount(self.face, minlength=self.k) > 0
+        self._repeat = 2 * islands.size  # both columns of every row, island by island
 
     def dot(self, a, b):
         """(n, 2), (n, 2) -> (k,).
@@ -253,10 +254,15 @@ class _PerIsland:
         return out
 
     def rows(self, per_island):
-        """Per-island scalars broadcast to vertex rows: (k,) -> (n, 1) or (1, 1)."""
+        """Per-island scalars spread over the (n, 2) vertex rows: (k,) -> (n, 2), or
+        (1, 1) for one island.
+
+        Islands are contiguous row blocks, so this is one ``np.repeat``; an (n, 1) column
+        broadcast against (n, 2) rows made every such product 5-6x slower (measured:
+        0.35 ms against 0.065 ms at 27k rows, 2.0 against 0.32 ms at 134k)."""
         if self.k == 1:
             return per_island.reshape(1, 1)
-        return per_island[self.vertex][:, None]
+        return np.repeat(per_island, self._repeat).reshape(-1, 2)
 
     def faces_of(self, per_island):
         """Per-island values for every face: (k,) -> (m,) or (1,)."""
@@ -469,6 +475,7 @@ def refine(
         out.arap_iterations += 1
     g = gradient(G)
     memory = []  # L-BFGS pairs (s, y, rho per island); an island's rho is 0 where unused
+    whisper = np.repeat(proxy.whisper, 2).reshape(-1, 2)  # per row and column: no (n, 1) broadcast
     gamma = np.ones(islands.n)  # per-island scale of the proxy, from the last good pair
     if carry is not None:
         memory, gamma = carry
@@ -534,7 +541,7 @@ def refine(
             # scale the proxy to the curvature seen along the step, s^T H s / s^T y, with
             # s^T K s = t^2 sum_f A_f |dJ_f|^2 from the Jacobians at hand (no product with H)
             sKs = t * t * each.face_sum(area * (dJ[0] * dJ[0] + dJ[1] * dJ[1] + dJ[2] * dJ[2] + dJ[3] * dJ[3]))
-            sHs = 2.0 * (sKs + each.dot(s_k, s_k * proxy.whisper[:, None]))
+            sHs = 2.0 * (sKs + each.dot(s_k, s_k * whisper))
             gamma = np.where(good, sHs / np.where(good, sy, 1.0), gamma)
         active &= ~(E - Et < tol * Et)
         x, J, E, g = x_new, Jt, Et, g_new
