@@ -456,3 +456,35 @@ def test_per_island_values_spread_over_the_rows_of_their_islands():
         spread = each.rows(per_island)
         assert spread.shape == (9, 2) and spread.dtype == per_island.dtype
         np.testing.assert_array_equal(spread, np.broadcast_to(per_island[label][:, None], (9, 2)))
+
+
+def test_the_energy_reported_is_the_layouts_after_a_restarted_island_is_fitted_to_its_pins():
+    # an island whose four-step layout folds is refined without its pins, then scaled onto
+    # them; when no stage follows, the energy reported was the one from before that scale
+    from isoparam_addon.solver.blocks import Islands
+    from isoparam_addon.solver.mesh import build_topology
+    from isoparam_addon.solver.pins import refine_to_pins
+    from isoparam_addon.solver.refine import FaceFrames, refine
+
+    V, F = ex.peaks(9)
+    seed = parametrize(V, F, refine=0, pack=False)
+    assert seed.flipped.any()
+    _, _, topo = build_topology(V, F)
+    X, faces = V[topo.vertex_of], topo.faces
+    islands = Islands(topo.vertex_island, topo.n_islands)
+    pinned = np.zeros(len(X), dtype=bool)
+    pinned[[0, 8, 76]] = True
+    target = 3.0 * seed.uv  # three times the size: the fit scales the island
+
+    def run(uv, fixed):
+        return refine(X, faces, uv, islands, topo.he.twin, iterations=50, pinned=fixed)
+
+    info, _ = refine_to_pins(run, seed.uv, faces, pinned, target, islands, stages=1)
+    a, b, c, d = FaceFrames(X, faces).jacobians(info.uv)
+    fro, det = a * a + b * b + c * c + d * d, a * d - b * c
+    area = FaceFrames(X, faces).area
+    energy = float((area * (fro + fro / det**2)).sum())
+    assert info.reseeded["conformal"][0] and (det > 0).all()
+    assert info.island_energy[0] == pytest.approx(energy, rel=1e-9)
+    assert info.energy[-1] == pytest.approx(energy / area.sum(), rel=1e-9)
+    assert info.energy[-2] < 0.5 * info.energy[-1]  # the scale did change it: 4.0x -> ~9x

@@ -255,7 +255,7 @@ def _report(op, solved, seconds: float) -> None:
     where = f" on {len(solved)} meshes" if len(solved) > 1 else ""
     op.report(
         {"INFO"},
-        f"Isometric Unwrap: {islands} island(s){where}, stretch worst {worst:.2f} mean {mean:.3f}, {seconds:.2f} s",
+        f"Isometric Unwrap: {islands} island(s){where}, stretch worst {worst:#.3g} mean {mean:#.4g}, {seconds:.2f} s",
     )
     for s in solved:  # warnings per mesh
         for w in s.warnings:

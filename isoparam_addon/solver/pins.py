@@ -202,6 +202,7 @@ def refine_to_pins(refine, Y, faces, constrained, target, islands: Islands, stag
             fit = fit_to_pins(current, constrained & folded[lab], target, islands)
             current = np.where(folded[lab][:, None], similarity(current, islands, *fit[:3]), current)
             info.uv = current
+            info.rescale(folded, fit[0])  # the energy of the layout returned, if it is the last
         if reached.all():
             break
         folded = _folded(current, faces, face_island, nI) & ~reached

@@ -181,6 +181,10 @@ class Refinement:
         At the end, per island: the energy (``sum_f A_f E_f``) and the 3D area of its
         faces that were refined (0 for islands left alone), so that the last ``energy``
         is ``island_energy.sum() / island_area.sum()``.
+    island_parts : ((n_islands,), (n_islands,)) float64
+        ``island_energy`` split into its ``sum_f A_f ||J_f||^2`` and
+        ``sum_f A_f ||J_f^{-1}||^2`` parts, which a uniform scale of the layout changes
+        by ``s^2`` and ``1 / s^2`` (see :meth:`rescale`).
     seconds : float
     """
 
@@ -192,7 +196,19 @@ class Refinement:
     folded: int = 0
     island_energy: np.ndarray = None
     island_area: np.ndarray = None
+    island_parts: tuple = None
     seconds: float = 0.0
+
+    def rescale(self, which: np.ndarray, scale: np.ndarray) -> None:
+        """Account for islands ``which`` (k,) bool of ``uv`` having been scaled by
+        ``scale`` (k,) (and turned and moved, which change nothing) after the last
+        iteration: their energies become those of the layout as it now is, and ``energy``
+        gets one more entry, the whole layout's."""
+        s2 = np.where(which, scale, 1.0) ** 2
+        d, i = self.island_parts[0] * s2, self.island_parts[1] / s2
+        self.island_parts = (d, i)
+        self.island_energy = np.where(which, d + i, self.island_energy)
+        self.energy.append(float(self.island_energy.sum()) / max(float(self.island_area.sum()), 1e-300))
 
 
 class _PerIsland:
@@ -564,6 +580,11 @@ def refine(
             break
     out.uv = x
     out.island_energy, out.island_area = E, each.face_sum(np.where(live_face, area, 0.0))
+    a, b, c, d = frames.jacobians(x)  # from x: a hand-over leaves J behind
+    fro, det = a * a + b * b + c * c + d * d, a * d - b * c
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = fro / (det * det)
+    out.island_parts = tuple(each.face_sum(np.where(live_face, area * t, 0.0)) for t in (fro, inv))
     out.folded = int((signed_double_areas(x, faces) <= 0).sum())
     out.seconds = time.perf_counter() - t0
     return out
