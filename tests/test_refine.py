@@ -281,6 +281,29 @@ def test_one_pin_moves_the_free_layout_without_turning_it(refine):
         assert np.ptp(shift, axis=0).max() < 1e-9 * np.ptp(free.uv)
 
 
+def test_pins_on_the_copies_of_a_seam_vertex_shape_the_island_without_turning_it():
+    # a Y-shaped seam ends inside the island, so its junction vertex has four copies in
+    # it, each pinned where a free unwrap put it (what Blender gives): one mesh vertex,
+    # four UVs, so the pins shape the island and set its frame (found in review: the
+    # one-pin rule turned it to its principal axes, moving it off the pins' frame)
+    from isoparam_addon.solver.mesh import unique_edges
+
+    V, F = ex.peaks(11)
+    c = 5 * 11 + 5
+    path = [5, 16, 27, 38, 49, c]  # from the boundary down the middle column to the centre
+    seams = np.array(list(zip(path[:-1], path[1:])) + [(c, c + 11), (c, c + 1), (c, c - 1)])
+    edges = {tuple(e) for e in unique_edges(F).tolist()}
+    assert all(tuple(sorted(e)) in edges for e in seams.tolist())
+    free = parametrize(V, F, seams, refine=10)
+    mask = F == c
+    assert free.n_islands == 1 and len(np.unique(free.corner_uv[mask], axis=0)) == 4
+    r = parametrize(V, F, seams, refine=10, pins=(mask, free.corner_uv))
+    assert np.abs(r.corner_uv[mask] - free.corner_uv[mask]).max() == 0.0
+    assert metrics.flipped(V, F, r.corner_uv) == 0
+    extent = np.ptp(free.corner_uv.reshape(-1, 2), axis=0).max()
+    assert np.abs(r.corner_uv - free.corner_uv).max() < 0.2 * extent
+
+
 def test_two_pins_fix_placement_rotation_and_scale_only():
     V, F = ex.peaks(21)
     free = parametrize(V, F, refine=100)

@@ -218,3 +218,29 @@ def test_an_islands_automatic_cut_does_not_depend_on_the_disks_beside_it():
         beside = build_topology(V, F)[2]
         assert alone.cut_islands.tolist() == [0] and beside.cut_islands.tolist() == [1]
         np.testing.assert_array_equal(beside.cut_edges - len(Vp), alone.cut_edges)
+
+
+def test_automatic_cuts_keep_off_pinned_vertices():
+    # a cut through a pinned vertex splits it into copies that its pins, all on its one
+    # UV, glue back together, folding the layout there; pinned where the torus's two cut
+    # loops meet (its root) it folded 6 faces, and a box's extra cut through a pinned
+    # corner folded 4 (found in review)
+    V, F = ex.torus(24, 10)
+    free = build_topology(V, F)[2]
+    v = int(np.argmax(np.bincount(free.vertex_of, minlength=len(V))))
+    assert np.bincount(free.vertex_of)[v] >= 3  # the unpinned cut meets there
+    mask = F == v
+    uv = np.where(mask[:, :, None], [0.3, 0.7], 0.0)
+    for refine in (0, 10):
+        r = parametrize(V, F, refine=refine, pins=(mask, uv))
+        assert r.cut_islands.tolist() == [0] and not np.isin(v, r.cut_edges)
+        assert np.abs(r.corner_uv[mask] - [0.3, 0.7]).max() < 1e-12
+        assert metrics.flipped(V, F, r.corner_uv) == 0
+    Vb, Fb, diagonals = ex.box(6)
+    Vb = Vb + 1e-4 * np.random.default_rng(0).standard_normal(Vb.shape)
+    mask = Fb == 5
+    uv = np.where(mask[:, :, None], [0.25, -1.0], 0.0)
+    for refine, extra in ((0, 0), (20, 2)):
+        r = parametrize(Vb, Fb, inner_edges=diagonals, refine=refine, extra_cuts=extra, pins=(mask, uv))
+        assert not np.isin(5, r.cut_edges) and not r.flipped.any()
+        assert np.abs(r.corner_uv[mask] - [0.25, -1.0]).max() < 1e-12

@@ -205,7 +205,8 @@ def parametrize(
         scale and shift from two pins on, shift from one); refinement keeps them fixed,
         so three or more also shape the island. Islands with two or more pins on distinct
         UVs keep the pins' frame; one pin (or pins on one UV) moves the island without
-        turning it from an unpinned island's frame.
+        turning it from an unpinned island's frame. Automatic cuts keep off pinned
+        vertices where they can.
     extra_cuts : int
         Islands that had to be cut automatically (closed, handles, holes) get up to this
         many more cuts, each the shortest path from the island's boundary to its most
@@ -233,7 +234,7 @@ def parametrize(
         tol=tol,
         max_iter=max_iter,
         split_bowties=split_bowties,
-        inner_edges=inner_edges,
+        inner_edges=_off_pins(faces, _pinned_vertices(faces, pins), inner_edges),
         refine=refine,
         pins=pins,
     )
@@ -244,6 +245,34 @@ def parametrize(
 
 
 _GAIN = 0.01  # an extra cut stays if it lowers its island's area distortion by this much
+
+
+def _pinned_vertices(faces, pins) -> np.ndarray | None:
+    """The mesh vertices with a pinned corner, or None (no pins, or input that validation
+    will reject: it is passed on as it is)."""
+    try:
+        F, mask = np.asarray(faces), np.asarray(pins[0], dtype=bool)
+    except (TypeError, ValueError, IndexError):
+        return None
+    if F.ndim != 2 or F.shape[1:] != (3,) or F.dtype.kind not in "iu" or mask.shape != F.shape or not mask.any():
+        return None
+    return np.unique(F[mask]).astype(np.int64)
+
+
+def _off_pins(faces, pinned, inner_edges):
+    """``inner_edges`` and every edge at a ``pinned`` vertex: automatic and extra cuts keep
+    off those where they can. A cut through a pinned vertex splits it into copies that its
+    pins, all on the vertex's one UV, would glue back together, folding the layout there
+    (found in review: a torus pinned where its two cut loops meet, 6 flipped faces)."""
+    if pinned is None:
+        return inner_edges
+    F = np.asarray(faces, dtype=np.int64)
+    E = np.zeros((0, 2), dtype=np.int64) if inner_edges is None else np.asarray(inner_edges)
+    if E.size and (E.ndim != 2 or E.shape[1] != 2 or E.dtype.kind not in "iu"):
+        return inner_edges  # validation reports it
+    at = np.isin(F, pinned)
+    edges = np.stack([F, F[:, [1, 2, 0]]], axis=2)[at | at[:, [1, 2, 0]]]  # each corner's edge to the next
+    return np.vstack([E.reshape(-1, 2).astype(np.int64), edges])
 
 
 def _pairs(seams) -> np.ndarray:
@@ -524,7 +553,8 @@ def _is_large(vertices) -> bool:
 def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_bowties, refine, pins, inner_edges):
     t = {}
     t0 = time.perf_counter()
-    V, F, topo = build_topology(vertices, faces, seams, split_bowties, inner_edges)
+    # a closed island's cut loops all meet at its root: never a pinned vertex if it can be helped
+    V, F, topo = build_topology(vertices, faces, seams, split_bowties, inner_edges, _pinned_vertices(faces, pins))
     faces_i = topo.faces
     # work in units of a power of two near the mesh's size (exact in floating point)
     unit = unit_of(V)
@@ -541,7 +571,8 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
         # copies of one pinned vertex split by a seam or cut count once)
         pin_pairs = np.unique(islands.label[pinned] * np.int64(len(V)) + topo.vertex_of[pinned])
         distinct = np.bincount(pin_pairs // len(V), minlength=islands.n)
-        one_point = (distinct >= 2) & ~pins_spread(pinned, target, islands)
+        spread = pins_spread(pinned, target, islands)  # pinned, and not all on one UV
+        one_point = (distinct >= 2) & ~spread
         # one or two pins, or pins all on one UV, do not shape an island
         shaping = pinned & ((count >= 3) & ~one_point)[islands.label]
     t1 = time.perf_counter()
@@ -581,15 +612,16 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
             info, reached = refine_to_pins(run, Y, faces_i, shaping, local, islands)
             Y = info.uv
         Y = similarity(Y, islands, *fit[:3])
-        # pins on one UV give no rotation: those islands take the frame unpinned islands
-        # get (principal axes), not the eigenvectors', which is arbitrary up to a half
-        # turn and turned with the mesh in 3D; the refit below moves them onto the pins
-        unturned = (distinct == 1) | one_point
+        light = (count <= 2) | one_point  # not shaped: fitted again below
+        # pins on one UV give no rotation: islands they do not shape take the frame
+        # unpinned islands get (principal axes), not the eigenvectors', which is arbitrary
+        # up to a half turn and turned with the mesh in 3D; the refit moves them onto the
+        # pins (copies of one vertex on several UVs, split by a seam, do turn an island)
+        unturned = light & (count > 0) & ~spread
         if unturned.any():
             Y = np.where(unturned[islands.label][:, None], place(Y, islands, pack=False), Y)
         refit = fit_to_pins(Y, pinned, target, islands)  # islands with one or two pins: exact
-        light = ((count <= 2) | one_point)[islands.label][:, None]  # not shaped: fitted again
-        Y = np.where(light, similarity(Y, islands, *refit[:3]), Y)
+        Y = np.where(light[islands.label][:, None], similarity(Y, islands, *refit[:3]), Y)
         Y[pinned] = target[pinned]
     elif refine:
         info = run(Y, None)

@@ -436,7 +436,7 @@ def _island_counts(Fs, ns, he, face_island, n_islands):
     return chi, n_loops
 
 
-def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inner_edges=None):
+def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inner_edges=None, avoid=None):
     """Validate, split along seams, find islands, orient them, cut non-disks into disks.
 
     Parameters
@@ -452,6 +452,10 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
     inner_edges : (k, 2) int, optional
         Vertex pairs of edges that automatic cuts avoid where they can (the diagonals of
         triangulated polygons); pairs that are not edges are ignored.
+    avoid : (k,) int, optional
+        Vertices not to root a closed island's cut at where another can be (pinned
+        vertices: every loop of the cut passes through the root, which splits it); ids
+        out of range are ignored.
 
     Returns
     -------
@@ -502,7 +506,13 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
             multi=np.flatnonzero(~disk & (n_loops > 1)),
             nonorientable=np.flatnonzero(~orientable),
         )
-        Fs, vertex_of, flip, cut_edges = _cut_islands(Vu, Fs, vertex_of, he, he0, face_island, ~disk, area, inner, flip)
+        keep = np.zeros(n, dtype=bool)
+        if avoid is not None:
+            ids = np.asarray(avoid, dtype=np.int64).ravel()
+            keep[ids[(ids >= 0) & (ids < n)]] = True
+        Fs, vertex_of, flip, cut_edges = _cut_islands(
+            Vu, Fs, vertex_of, he, he0, face_island, ~disk, area, inner, flip, keep
+        )
         ns = len(vertex_of)
         he = None  # rebuilt below, once the faces are numbered and oriented
     # number the split vertices island by island
@@ -549,7 +559,7 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
 # --------------------------------------------------------------------------- cutting to disks
 
 
-def _cut_islands(Vu, Fs, vertex_of, he, he0, face_island, todo, area, inner, flip):
+def _cut_islands(Vu, Fs, vertex_of, he, he0, face_island, todo, area, inner, flip, keep):
     """Cut the islands in ``todo`` into disks, working on their faces alone.
 
     The cut graph, the orientation along it and the split run on the sub-mesh of the
@@ -581,7 +591,7 @@ def _cut_islands(Vu, Fs, vertex_of, he, he0, face_island, todo, area, inner, fli
         inner_sub = np.isin(ev[:, 0] * np.int64(n) + ev[:, 1], ev0[:, 0] * np.int64(n) + ev0[:, 1])
     n_islands = len(todo)
     X = Vu[vertex_of[sv]]
-    cut = _cut_graph(X, Fsub, hsub, isl_sub, todo, inner_sub)
+    cut = _cut_graph(X, Fsub, hsub, isl_sub, todo, inner_sub, keep[vertex_of[sv]])
     area = _face_areas(X, Fsub) if area is None else area[sub]
     flip = flip.copy()
     flip[sub] = _orient_cut(Fsub, hsub, isl_sub, n_islands, area, cut, flip[sub], todo)
@@ -658,7 +668,7 @@ def _two_core(ns: int, edges: np.ndarray) -> np.ndarray:
     return ~is_tree | ((inside > 0.5) & (outside > 0.5))
 
 
-def _cut_graph(X, Fs, he, face_island, todo, inner):
+def _cut_graph(X, Fs, he, face_island, todo, inner, keep=None):
     """Edges to cut so that every island in ``todo`` becomes a topological disk.
 
     Tree-cotree with shortest paths, after Erickson & Whittlesey (2005), "Greedy optimal
@@ -677,7 +687,8 @@ def _cut_graph(X, Fs, he, face_island, todo, inner):
 
     Edges flagged ``inner`` (polygon diagonals) cost more than any path without them in
     T and in the genus-0 path, and join D first, so they are cut only when nothing else
-    opens the island.
+    opens the island. A closed island's root is a vertex not flagged in ``keep`` (ns,)
+    bool if it has one (every loop of its cut graph passes through the root).
 
     Returns a boolean mask over the undirected edges of ``he``.
     """
@@ -704,6 +715,8 @@ def _cut_graph(X, Fs, he, face_island, todo, inner):
         np.minimum.at(first_v, v_isl[v_isl >= 0], np.flatnonzero(v_isl >= 0))
         d0 = csgraph.dijkstra(graph, directed=False, indices=first_v[closed], min_only=True)
         far = np.where(np.isfinite(d0), d0, -1.0)
+        if keep is not None:  # vertices to keep whole root the cut only if nothing else can
+            far = np.where(keep & (far >= 0), -0.5, far)
         roots = np.full(len(todo), -1, dtype=np.int64)
         best = np.full(len(todo), -np.inf)
         np.maximum.at(best, v_isl[v_isl >= 0], far[v_isl >= 0])
@@ -756,7 +769,8 @@ def _cut_graph(X, Fs, he, face_island, todo, inner):
         inside = np.flatnonzero(v_isl == isl)
         r = int(roots[np.searchsorted(closed, isl)])
         d1, p1 = csgraph.dijkstra(graph, directed=False, indices=r, return_predecessors=True)
-        b = int(inside[np.argmax(d1[inside])])
+        far1 = d1[inside] if keep is None else np.where(keep[inside], -1.0, d1[inside])
+        b = int(inside[np.argmax(far1)])  # the far end: not a vertex to keep whole if one can be helped
         path = [b]
         while path[-1] != r:  # walks one path, O(sqrt(n)) steps on a typical mesh
             path.append(int(p1[path[-1]]))
