@@ -167,7 +167,8 @@ class Refinement:
     uv : (n, 2) float64
     energy : list of float
         Symmetric Dirichlet per unit area (4 = isometric) after each iteration, the
-        seed's first.
+        seed's first; then, if islands were scaled onto their pins after the last
+        iteration (:meth:`rescale`), the layout's as returned (which can be higher).
     iterations : int
         Descent iterations.
     arap_iterations : int
