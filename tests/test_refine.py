@@ -304,6 +304,23 @@ def test_pins_on_the_copies_of_a_seam_vertex_shape_the_island_without_turning_it
     assert np.abs(r.corner_uv - free.corner_uv).max() < 0.2 * extent
 
 
+def test_corners_of_one_vertex_pinned_to_different_uvs_are_held_at_their_mean_and_warned():
+    # e.g. pins kept from an unwrap whose automatic cut ran through the vertex, which the
+    # new cut keeps off: the vertex has one UV now (found by fuzzing: no warning)
+    V, F = ex.peaks(9)
+    mask = F == 40
+    uv = np.zeros(F.shape + (2,))
+    uv[mask] = [0.5, 0.5]
+    first = np.argwhere(mask)[0]
+    uv[first[0], first[1]] = [0.7, 0.5]  # one corner elsewhere
+    r = parametrize(V, F, pins=(mask, uv))
+    expected = [0.5 + 0.2 / mask.sum(), 0.5]
+    assert np.abs(r.corner_uv[mask] - expected).max() < 1e-12
+    assert any("1 pinned vertices have corners pinned to different UVs" in w for w in r.warnings)
+    agreed = parametrize(V, F, pins=(mask, np.where(mask[:, :, None], [0.5, 0.5], 0.0)))
+    assert not any("different UVs" in w for w in agreed.warnings)
+
+
 def test_two_pins_fix_placement_rotation_and_scale_only():
     V, F = ex.peaks(21)
     free = parametrize(V, F, refine=100)

@@ -48,6 +48,7 @@ def test_ragged_and_non_numeric_input():
     raises("shape", [[0, 0, 0], [1, 0], [1, 1, 0], [0, 1, 0]], F, "vertices must be an array of numbers")
     raises("shape", V, [[0, 1, 2], [0, 2]], "faces must be an array of numbers")
     raises("shape", [["a", "b", "c"]] * 4, F, "vertices must be an array of numbers")
+    raises("shape", V + 5j, F, "vertices must be an array of numbers: complex")  # not dropped to real
 
 
 def test_bad_pins():

@@ -244,3 +244,28 @@ def test_automatic_cuts_keep_off_pinned_vertices():
         r = parametrize(Vb, Fb, inner_edges=diagonals, refine=refine, extra_cuts=extra, pins=(mask, uv))
         assert not np.isin(5, r.cut_edges) and not r.flipped.any()
         assert np.abs(r.corner_uv[mask] - [0.25, -1.0]).max() < 1e-12
+
+
+def test_small_closed_meshes_are_cut_open_with_and_without_pins():
+    # the genus-0 cut's fallback for a one-edge path read b's neighbours from a graph that
+    # holds each edge once, at its lower vertex: none, or only the root, on small convex
+    # hulls (26% of random tetrahedra raised); pinned vertices pushed the path's far end
+    # back onto the root (Blender's default cube with pins raised). Found by fuzzing.
+    from scipy.spatial import ConvexHull
+
+    rng = np.random.default_rng(18)
+    for k in (4, 4, 4, 4, 4, 4, 5, 5, 6, 7, 8, 9):
+        for _ in range(4):
+            V = rng.standard_normal((k, 3))
+            F = ConvexHull(V).simplices
+            r = parametrize(V, F)
+            assert r.cut_islands.tolist() == [0] and np.isfinite(r.corner_uv).all()
+    cube = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    F = ConvexHull(cube).simplices
+    for pinned in ([0, 1, 2, 4], list(range(8)), [0, 1]):
+        mask = np.isin(F, pinned)
+        uv = np.where(mask[:, :, None], cube[F][:, :, :2], 0.0)
+        for refine in (0, 20):
+            r = parametrize(cube, F, refine=refine, pins=(mask, uv))
+            assert r.cut_islands.tolist() == [0] and np.isfinite(r.corner_uv).all()
+            assert np.abs(r.corner_uv[mask] - uv[mask]).max() < 1e-12

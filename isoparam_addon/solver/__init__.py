@@ -138,6 +138,12 @@ def _warnings(facts: dict, converged: np.ndarray, flipped: np.ndarray) -> list[s
             f"{int(one_point.sum())} island(s) have all their pins on one UV (first: island "
             f"{np.argmax(one_point)}): moved there, not scaled or shaped by them"
         )
+    mean = facts["pin_mean"]
+    if mean.any():
+        out.append(
+            f"{int(mean.sum())} pinned vertices have corners pinned to different UVs (first: island "
+            f"{np.argmax(mean > 0)}): each is held at their mean"
+        )
     missed = np.flatnonzero(~facts["reached"])
     if missed.size:
         out.append(
@@ -425,7 +431,7 @@ def _extend_cuts(first: Parametrization, seams, rounds: int, options: dict) -> P
 
 
 _PER_ISLAND = (
-    *("change", "clipped", "held", "one_point", "shaped", "extra_vertex", "regularized"),
+    *("change", "clipped", "held", "one_point", "pin_mean", "shaped", "extra_vertex", "regularized"),
     *("conformal", "tutte", "refine_energy", "refine_area", "reached"),
 )
 _STEPS = ("iterations", "vertices", "faces", "refine_iterations", "refine_energy")  # the counters not in facts
@@ -562,9 +568,9 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
     islands = Islands(topo.vertex_island, topo.n_islands)
     he = topo.he
     fan = topo.fans
-    pinned = target = one_point = None
+    pinned = target = one_point = disagree = None
     if pins is not None:
-        pinned, target = pin_targets(topo, pins, len(X))
+        pinned, target, disagree = pin_targets(topo, pins, len(X))
         target = target / unit
         count = np.bincount(islands.label, pinned, minlength=islands.n)
         # several pinned mesh vertices on one UV place the island but do not scale it (the
@@ -645,6 +651,9 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
         clipped=clipped,
         held=held,
         one_point=never if one_point is None else one_point,
+        pin_mean=np.zeros(nI, dtype=np.int64)
+        if disagree is None
+        else np.bincount(islands.label, disagree, minlength=nI),
         shaped=never if pins is None else (count >= 3) & ~one_point,
         reached=reached,
         unused=unused,

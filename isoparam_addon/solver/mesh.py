@@ -56,11 +56,14 @@ def validate(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _array(x, name: str, dtype) -> np.ndarray:
-    """``x`` as an array (a fresh copy if ``dtype`` is given); ragged or non-numeric input
-    is an :class:`InvalidMeshError`."""
+    """``x`` as an array (a fresh copy if ``dtype`` is given); ragged, non-numeric or
+    complex input is an :class:`InvalidMeshError`."""
     try:
-        return np.asarray(x) if dtype is None else np.array(x, dtype=dtype, copy=True)
-    except (TypeError, ValueError) as e:  # ragged lists, strings, objects
+        raw = np.asarray(x)
+        if raw.dtype.kind == "c":  # converting would drop the imaginary part with a warning
+            raise TypeError(f"complex values ({raw.dtype})")
+        return raw if dtype is None else np.array(raw, dtype=dtype, copy=True)
+    except (TypeError, ValueError) as e:  # ragged lists, strings, objects, complex numbers
         raise InvalidMeshError("shape", f"{name} must be an array of numbers: {e}") from None
 
 
@@ -769,17 +772,23 @@ def _cut_graph(X, Fs, he, face_island, todo, inner, keep=None):
         inside = np.flatnonzero(v_isl == isl)
         r = int(roots[np.searchsorted(closed, isl)])
         d1, p1 = csgraph.dijkstra(graph, directed=False, indices=r, return_predecessors=True)
-        far1 = d1[inside] if keep is None else np.where(keep[inside], -1.0, d1[inside])
-        b = int(inside[np.argmax(far1)])  # the far end: not a vertex to keep whole if one can be helped
+        far1 = d1[inside]
+        if keep is not None:  # the far end: not a vertex to keep whole if another can be
+            other = ~keep[inside] & (inside != r)
+            if other.any():
+                far1 = np.where(other, far1, -1.0)
+        b = int(inside[np.argmax(far1)])  # never r: every other vertex is farther
         path = [b]
         while path[-1] != r:  # walks one path, O(sqrt(n)) steps on a typical mesh
             path.append(int(p1[path[-1]]))
         if len(path) == 2:
             # one edge opens nothing (its two sides join the same two vertices, which
-            # is still one edge): go on to the neighbour of b costing least that is not r
-            nb = graph.indices[graph.indptr[b] : graph.indptr[b + 1]]
-            cost = graph.data[graph.indptr[b] : graph.indptr[b + 1]]
-            path.insert(0, int(nb[np.argmin(np.where(nb == r, np.inf, cost))]))
+            # is still one edge): go on to the neighbour of b costing least that is not
+            # r (from the edge list: ``graph`` holds each edge once, at its lower vertex;
+            # reading b's row alone found none, or only r, on small closed meshes)
+            at = np.flatnonzero((ev[:, 0] == b) | (ev[:, 1] == b))
+            nb = np.where(ev[at, 0] == b, ev[at, 1], ev[at, 0])
+            path.insert(0, int(nb[np.argmin(np.where(nb == r, np.inf, w[at]))]))
         p = np.asarray(path, dtype=np.int64)
         pk = np.minimum(p[:-1], p[1:]) * np.int64(ns) + np.maximum(p[:-1], p[1:])
         cut[np.searchsorted(ekey, pk)] = True

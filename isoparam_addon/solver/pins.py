@@ -35,6 +35,8 @@ def pin_targets(topo, pins, n: int):
     -------
     pinned : (n,) bool, target : (n, 2) float64
         A vertex pinned at several corners with different UVs gets their mean.
+    disagree : (n,) bool
+        Those vertices (corners more than 1e-9 of the largest pinned UV apart).
     """
     m = len(topo.corner_vertex)
     shapes = f"pins must be ((m, 3) bool, (m, 3, 2) float) with m = {m}"
@@ -52,9 +54,12 @@ def pin_targets(topo, pins, n: int):
     v = topo.corner_vertex[mask]
     count = np.bincount(v, minlength=n)
     target = np.zeros((n, 2))
+    given = uv[mask]
     for c in range(2):  # u and v
-        target[:, c] = np.bincount(v, uv[mask][:, c], minlength=n) / np.maximum(count, 1)
-    return count > 0, target
+        target[:, c] = np.bincount(v, given[:, c], minlength=n) / np.maximum(count, 1)
+    off = np.bincount(v, ((given - target[v]) ** 2).sum(axis=1), minlength=n)
+    scale = float(np.abs(given).max(initial=0.0))
+    return count > 0, target, off > (1e-9 * scale) ** 2 * count
 
 
 def _spread(P, w, lab, nI):
