@@ -221,3 +221,21 @@ def test_solver_imports_without_bpy():
     code = "import sys, isoparam_addon.solver, isoparam_addon.solver.metrics; print('bpy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_coincident_vertices_do_not_stop_the_restart_of_a_folded_island():
+    # two pairs of distinct vertices at one position: the Tutte restart's mean-value
+    # weights had 1e-300 edge lengths and SuperLU raised "Factor is exactly singular"
+    # (found by fuzzing; minimised from a noisy sphere beside a disk)
+    V = np.array(
+        [[0.88, -0.38, -0.52], [0.76, -0.33, -0.47], [0.91, -0.4, -0.53], [0.79, -0.36, -0.48],
+         [0.79, -0.36, -0.48], [0.69, -0.32, -0.44], [0.76, -0.37, -0.47], [0.56, -0.31, -0.39],
+         [0.56, -0.3, -0.39], [0.56, -0.31, -0.39], [0.51, -0.32, -0.37]]
+    )  # fmt: skip
+    F = np.array(
+        [[1, 4, 0], [4, 1, 5], [7, 4, 5], [8, 7, 5], [3, 2, 0], [4, 3, 0], [6, 3, 4], [7, 6, 4],
+         [3, 6, 2], [9, 10, 7], [9, 7, 8]]
+    )  # fmt: skip
+    r = parametrize(V, F, refine=100)
+    assert np.isfinite(r.corner_uv).all()
+    assert r.stats["reseeded"]["tutte"] == 1 and not r.flipped.any()

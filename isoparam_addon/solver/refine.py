@@ -302,10 +302,13 @@ def _reseed(X, faces, x, he_twin, islands, frames, each, pinned, out, order=None
     for name, floor in (("conformal", _COLLAPSED), ("tutte", 0.0)):
         if not bad.any():
             break
-        if name == "conformal":
-            y = lscm(X, faces, islands, frames, bad, order)
-        else:
-            y = tutte(X, faces, he_twin, islands, frames, bad, order)
+        try:
+            if name == "conformal":
+                y = lscm(X, faces, islands, frames, bad, order)
+            else:
+                y = tutte(X, faces, he_twin, islands, frames, bad, order)
+        except RuntimeError:  # SuperLU: "Factor is exactly singular"; they stay as they are
+            continue
         ok = bad & (each.face_sum(signed_double_areas(y, faces) <= floor * 2.0 * frames.area) == 0)
         x = np.where(ok[islands.label][:, None], y, x)
         out.reseeded[name] = ok

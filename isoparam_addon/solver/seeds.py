@@ -148,17 +148,21 @@ def tutte(X, faces, he_twin, islands: Islands, frames, which: np.ndarray, order=
     angle = 2 * np.pi * s_before / np.where(total[isl] > 0, total[isl], 1.0)
     uv = np.zeros((n, 2))
     uv[loop, 0], uv[loop, 1] = np.cos(angle), np.sin(angle)
-    # mean-value weights w_ij = (tan(a1/2) + tan(a2/2)) / |x_i - x_j|, all positive
+    # mean-value weights w_ij = (tan(a1/2) + tan(a2/2)) / |x_i - x_j|, all positive and
+    # bounded: coincident vertices (a zero-length edge, no angle) took 1e-300 lengths and
+    # gave weights of 1e287 beside ones of 1, and SuperLU "Factor is exactly singular"
+    # (found by fuzzing); such an edge now weighs about as much as a normal one
     rows, cols, vals = [], [], []
     P = X[faces]
+    size = float(np.abs(P).max(initial=0.0)) or 1.0
     for k in range(3):  # the three corners of every face
         i, o = faces[:, k], faces[:, (k + 2) % 3]
         j = faces[:, (k + 1) % 3]
         e1, e2 = P[:, (k + 1) % 3] - P[:, k], P[:, (k + 2) % 3] - P[:, k]
-        n1 = np.maximum(np.linalg.norm(e1, axis=1), 1e-300)
-        n2 = np.maximum(np.linalg.norm(e2, axis=1), 1e-300)
+        n1 = np.maximum(np.linalg.norm(e1, axis=1), 1e-6 * size)
+        n2 = np.maximum(np.linalg.norm(e2, axis=1), 1e-6 * size)
         ang = np.arctan2(np.linalg.norm(np.cross(e1, e2), axis=1), (e1 * e2).sum(axis=1))
-        tn = np.tan(np.clip(ang, 1e-12, np.pi - 1e-12) / 2)
+        tn = np.tan(np.clip(ang, 1e-6, np.pi - 1e-6) / 2)
         rows += [i, i]
         cols += [j, o]
         vals += [tn / n1, tn / n2]
