@@ -269,3 +269,23 @@ def test_small_closed_meshes_are_cut_open_with_and_without_pins():
             r = parametrize(cube, F, refine=refine, pins=(mask, uv))
             assert r.cut_islands.tolist() == [0] and np.isfinite(r.corner_uv).all()
             assert np.abs(r.corner_uv[mask] - uv[mask]).max() < 1e-12
+
+
+def test_flipped_faces_are_those_of_the_layout_returned():
+    # r.flipped was taken before the islands were turned and packed, which rounds some
+    # faces of ~1e-26 the mesh's area to clockwise or nothing: a planar fuzzing mesh
+    # (disks with collinear and coincident vertices, inconsistently oriented) had two
+    # such faces neither flagged nor warned about
+    from pathlib import Path
+
+    mesh = np.load(Path(__file__).parent / "data" / "fuzz_flat_sliver_cluster.npz")
+    V, F = mesh["V"], mesh["F"].astype(np.int64)
+    Vs, Fs, _ = ex.s_surface_random(600, 3)
+    Fs[::5] = Fs[::5, ::-1]  # inconsistent input orientation: the solver reverses these
+    for Vi, Fi in ((V, F), (Vs + [0.0, 0.0, 1e6], Fs)):
+        for refine, pack in ((0, True), (100, True), (20, False)):
+            r = parametrize(Vi, Fi, refine=refine, pack=pack, split_bowties=True)
+            e1, e2 = r.corner_uv[:, 1] - r.corner_uv[:, 0], r.corner_uv[:, 2] - r.corner_uv[:, 0]
+            a = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+            reversed_ = build_topology(Vi, Fi, split_bowties=True)[2].flipped
+            np.testing.assert_array_equal(r.flipped, np.where(reversed_, -a, a) <= 0)
