@@ -456,7 +456,7 @@ def _merge(first: Parametrization, kept: list, seams: np.ndarray, options: dict)
     same = topo.n_islands == first.n_islands and np.array_equal(topo.face_island, first.face_island)
     if not same or topo.cut_islands.size:  # not expected (a slit keeps one disk): solve it all
         return _parametrize(V, F, seams, **options)
-    corner_uv, flipped = first.corner_uv.copy(), first.flipped.copy()
+    corner_uv = first.corner_uv.copy()
     eigenvalues, converged = first.eigenvalues.copy(), first.converged.copy()
     facts = {key: first._facts[key].copy() for key in _PER_ISLAND}
     steps = {key: value for key, value in first.stats.items() if key in _STEPS}
@@ -465,7 +465,6 @@ def _merge(first: Parametrization, kept: list, seams: np.ndarray, options: dict)
         label[trial.face_island] = first.face_island[faces]
         mine = np.isin(first.face_island[faces], won)
         corner_uv[faces[mine]] = trial.corner_uv[mine]
-        flipped[faces[mine]] = trial.flipped[mine]
         take = np.isin(label, won)
         to = label[take]
         eigenvalues[to], converged[to] = trial.eigenvalues[take], trial.converged[take]
@@ -478,6 +477,7 @@ def _merge(first: Parametrization, kept: list, seams: np.ndarray, options: dict)
     uv_split[topo.corner_vertex.ravel()] = corner_uv.reshape(-1, 2)
     if options["pack"]:
         uv_split = pack_islands(uv_split, Islands(topo.vertex_island, topo.n_islands), options["margin"], facts["held"])
+    flipped = signed_areas(uv_split / unit_of(V), topo.faces) <= 0  # as returned (see _parametrize)
     corner_uv, uv, unused = _per_corner_and_vertex(uv_split, topo, len(V))
     facts.update(opened=[], unused=unused)
     steps["split_vertices"] = len(topo.vertex_of)
@@ -600,7 +600,7 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
     edges = he.edge_vertices
     length = _edge_lengths(X, edges)
     Y, _, clipped = fit_rotation_scale(emb.coords, edges, length, islands.label[edges[:, 0]], islands)
-    Y, flipped = orient(Y, faces_i, topo.face_island, islands)
+    Y, _ = orient(Y, faces_i, topo.face_island, islands)
     t5 = time.perf_counter()
     held = np.zeros(topo.n_islands, dtype=bool)
     order = np.concatenate([plan.free_order, plan.pins.ravel()])
