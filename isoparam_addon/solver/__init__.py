@@ -600,7 +600,7 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
     edges = he.edge_vertices
     length = _edge_lengths(X, edges)
     Y, _, clipped = fit_rotation_scale(emb.coords, edges, length, islands.label[edges[:, 0]], islands)
-    Y, _ = orient(Y, faces_i, topo.face_island, islands)
+    Y = orient(Y, faces_i, topo.face_island, islands)
     t5 = time.perf_counter()
     held = np.zeros(topo.n_islands, dtype=bool)
     order = np.concatenate([plan.free_order, plan.pins.ravel()])

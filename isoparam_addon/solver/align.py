@@ -100,12 +100,12 @@ def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def orient(Y, faces, face_island, islands: Islands):
     """Mirror every island whose faces are mostly clockwise (the eigenvectors leave the
-    reflection free). Returns ``(Y (n, 2), folded (m,) bool)``."""
-    area = signed_areas(Y, faces)
-    mirror = np.bincount(face_island, area, minlength=islands.n) < 0
+    reflection free). Returns Y (n, 2); which faces fold is read from the layout as
+    returned (see :func:`.parametrize`)."""
+    mirror = np.bincount(face_island, signed_areas(Y, faces), minlength=islands.n) < 0
     Y = Y.copy()
     Y[mirror[islands.label], 0] *= -1.0
-    return Y, np.where(mirror[face_island], -area, area) <= 0
+    return Y
 
 
 def place(Y, islands: Islands, pack: bool = True, margin: float = 0.02, fixed=None):

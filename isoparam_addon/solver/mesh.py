@@ -671,7 +671,7 @@ def _two_core(ns: int, edges: np.ndarray) -> np.ndarray:
     return ~is_tree | ((inside > 0.5) & (outside > 0.5))
 
 
-def _cut_graph(X, Fs, he, face_island, todo, inner, keep=None):
+def _cut_graph(X, Fs, he, face_island, todo, inner, keep):
     """Edges to cut so that every island in ``todo`` becomes a topological disk.
 
     Tree-cotree with shortest paths, after Erickson & Whittlesey (2005), "Greedy optimal
@@ -718,8 +718,7 @@ def _cut_graph(X, Fs, he, face_island, todo, inner, keep=None):
         np.minimum.at(first_v, v_isl[v_isl >= 0], np.flatnonzero(v_isl >= 0))
         d0 = csgraph.dijkstra(graph, directed=False, indices=first_v[closed], min_only=True)
         far = np.where(np.isfinite(d0), d0, -1.0)
-        if keep is not None:  # vertices to keep whole root the cut only if nothing else can
-            far = np.where(keep & (far >= 0), -0.5, far)
+        far = np.where(keep & (far >= 0), -0.5, far)  # vertices to keep whole root it only if nothing else can
         roots = np.full(len(todo), -1, dtype=np.int64)
         best = np.full(len(todo), -np.inf)
         np.maximum.at(best, v_isl[v_isl >= 0], far[v_isl >= 0])
@@ -773,10 +772,9 @@ def _cut_graph(X, Fs, he, face_island, todo, inner, keep=None):
         r = int(roots[np.searchsorted(closed, isl)])
         d1, p1 = csgraph.dijkstra(graph, directed=False, indices=r, return_predecessors=True)
         far1 = d1[inside]
-        if keep is not None:  # the far end: not a vertex to keep whole if another can be
-            other = ~keep[inside] & (inside != r)
-            if other.any():
-                far1 = np.where(other, far1, -1.0)
+        other = ~keep[inside] & (inside != r)  # the far end: not a vertex to keep whole if another can be
+        if other.any():
+            far1 = np.where(other, far1, -1.0)
         b = int(inside[np.argmax(far1)])  # never r: every other vertex is farther
         path = [b]
         while path[-1] != r:  # walks one path, O(sqrt(n)) steps on a typical mesh
