@@ -31,7 +31,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))
-os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="isoparam-compare-"))
+_home = tempfile.TemporaryDirectory(prefix="isoparam-compare-")  # removed at exit
+os.environ.setdefault("BLENDER_USER_RESOURCES", _home.name)
 
 import bpy  # noqa: E402
 from blender_util import METHODS, add_object, edit, read_uvs, render, suzanne  # noqa: E402

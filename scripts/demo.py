@@ -28,7 +28,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))
-os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="isoparam-demo-"))
+_home = tempfile.TemporaryDirectory(prefix="isoparam-demo-")  # removed at exit
+os.environ.setdefault("BLENDER_USER_RESOURCES", _home.name)
 
 import bpy  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402

@@ -10,7 +10,8 @@ import tempfile
 import numpy as np
 import pytest
 
-os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="isoparam-blender-"))
+_home = tempfile.TemporaryDirectory(prefix="isoparam-blender-")  # removed at exit
+os.environ.setdefault("BLENDER_USER_RESOURCES", _home.name)
 bpy = pytest.importorskip("bpy", reason="bpy (Blender as a Python module) is not installed")
 
 import isoparam_addon  # noqa: E402

@@ -86,7 +86,8 @@ INSIDE_BLENDER = textwrap.dedent(
     """
     # what `blender --background scene.blend --python batch_unwrap.py -- --save` does
     import os, sys, runpy, tempfile
-    os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp()
+    home = tempfile.TemporaryDirectory()  # removed at exit
+    os.environ["BLENDER_USER_RESOURCES"] = home.name
     import bpy
     bpy.ops.wm.open_mainfile(filepath=sys.argv[1])
     sys.argv = ["blender", "--background", sys.argv[1], "--python", sys.argv[2], "--", "--save"]
@@ -99,7 +100,8 @@ def test_inside_blender_on_the_open_file(tmp_path):
     make = textwrap.dedent(
         f"""
         import os, tempfile, sys
-        os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp()
+        home = tempfile.TemporaryDirectory()  # removed at exit
+        os.environ["BLENDER_USER_RESOURCES"] = home.name
         import bpy
         bpy.ops.wm.read_homefile(use_empty=True)
         bpy.ops.mesh.primitive_monkey_add()
@@ -120,7 +122,8 @@ def test_inside_blender_on_the_open_file(tmp_path):
     check = textwrap.dedent(
         f"""
         import os, tempfile
-        os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp()
+        home = tempfile.TemporaryDirectory()  # removed at exit
+        os.environ["BLENDER_USER_RESOURCES"] = home.name
         import bpy, numpy as np
         bpy.ops.wm.open_mainfile(filepath={str(tmp_path / "scene.blend")!r})
         for ob in bpy.data.objects:

@@ -1,7 +1,9 @@
 """The extension zip: built with the bpy wheel's own tool, installed into bpy, used."""
 
+import os
 import subprocess
 import sys
+import tempfile
 import textwrap
 from pathlib import Path
 
@@ -13,9 +15,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 INSTALL_AND_USE = textwrap.dedent(
     """
-    import os, sys, tempfile
-    os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp(prefix="isoparam-ext-")
-    import bpy, numpy as np
+    import sys
+    import bpy, numpy as np  # BLENDER_USER_RESOURCES: a folder the test removes (~150 MB installed), numpy as np
     zip_path = sys.argv[1]
     result = bpy.ops.extensions.package_install_files(
         filepath=zip_path, repo="user_default", enable_on_install=True)
@@ -71,9 +72,14 @@ def test_the_zip_holds_the_manifest_the_addon_and_scipy_but_not_numpy(linux_zip)
 
 
 def test_installed_extension_unwraps_a_mesh(linux_zip):
-    done = subprocess.run(
-        [sys.executable, "-c", INSTALL_AND_USE, str(linux_zip)], capture_output=True, text=True, timeout=600
-    )
+    with tempfile.TemporaryDirectory(prefix="isoparam-ext-") as home:
+        done = subprocess.run(
+            [sys.executable, "-c", INSTALL_AND_USE, str(linux_zip)],
+            env={**os.environ, "BLENDER_USER_RESOURCES": home},
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
     out = done.stdout + done.stderr
     assert done.returncode == 0, out
     assert "RESULT {'FINISHED'}" in out
