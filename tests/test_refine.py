@@ -316,9 +316,10 @@ def test_corners_of_one_vertex_pinned_to_different_uvs_are_held_at_their_mean_an
     r = parametrize(V, F, pins=(mask, uv))
     expected = [0.5 + 0.2 / mask.sum(), 0.5]
     assert np.abs(r.corner_uv[mask] - expected).max() < 1e-12
-    assert any("1 pinned vertices have corners pinned to different UVs" in w for w in r.warnings)
+    [w] = [w for w in r.warnings if "1 pinned vertices have corners pinned to different UVs" in w]
+    assert w.kind == "pin_conflict" and r.stats["pin_conflicts"] == 1  # the operator words it its own way
     agreed = parametrize(V, F, pins=(mask, np.where(mask[:, :, None], [0.5, 0.5], 0.0)))
-    assert not any("different UVs" in w for w in agreed.warnings)
+    assert not any("different UVs" in w for w in agreed.warnings) and agreed.stats["pin_conflicts"] == 0
 
 
 def test_two_pins_fix_placement_rotation_and_scale_only():

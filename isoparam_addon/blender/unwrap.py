@@ -226,7 +226,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             aspect=aspect,
             margin=opts.margin if opts.pack else 0.0,
         )
-        solved.append(_Solved(ob, sel, uv, held, res.n_islands, *stretch.measure(sel.V, sel.F, uv), res.warnings))
+        solved.append(_Solved(ob, sel, uv, held, res.n_islands, *stretch.measure(sel.V, sel.F, uv), _warnings(res)))
     return solved
 
 
@@ -247,6 +247,20 @@ def _write_stretch(me, sel: mesh_io.Selection, distortion: np.ndarray) -> None:
     worst = np.zeros(len(faces))
     np.maximum.at(worst, inverse, distortion)
     mesh_io.write_face_colours(me, stretch.ATTRIBUTE, stretch.colours(worst), faces)
+
+
+def _warnings(res) -> list[str]:
+    """The solver's warnings, as they hold for what the operator writes: the solver holds a
+    vertex whose corners are pinned to different UVs at their mean, but pins never move here
+    (``layout.place`` puts every pinned corner back on its own UV)."""
+    out = [w for w in res.warnings if getattr(w, "kind", "") != "pin_conflict"]
+    if res.stats.get("pin_conflicts"):
+        out.append(
+            f"{res.stats['pin_conflicts']} pinned vertices have corners pinned to different UVs: each corner "
+            "stays on its pin, so the faces around them stretch between the pins "
+            "(unpin all but one UV of each to avoid it)"
+        )
+    return out
 
 
 def _report(op, solved, seconds: float) -> None:

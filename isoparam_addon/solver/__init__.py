@@ -67,10 +67,13 @@ class Parametrization:
     converged : (n_islands,) bool
         Whether Step 3 met its tolerance on each island.
     warnings : list of str
+        Those a caller may word its own way are :class:`Notice` objects, whose ``kind``
+        names the case (``"pin_conflict"``).
     timings : dict
         Seconds per step.
     stats : dict
-        Counters: extra vertices borrowed, regularized rows, iterations, ...
+        Counters: extra vertices borrowed, regularized rows, pinned vertices whose corners
+        are pinned to different UVs (``pin_conflicts``), iterations, ...
     """
 
     uv: np.ndarray
@@ -111,6 +114,18 @@ def _opened(topo: Topology) -> list[str]:
     return out
 
 
+class Notice(str):
+    """A warning's text, and ``kind`` naming the case for a caller that words it its own
+    way (the add-on's operator keeps every pinned corner on its own UV, not at the mean)."""
+
+    kind: str = ""
+
+    def __new__(cls, text: str, kind: str = ""):
+        self = super().__new__(cls, text)
+        self.kind = kind
+        return self
+
+
 def _warnings(facts: dict, converged: np.ndarray, flipped: np.ndarray) -> list[str]:
     """The result's warnings from the per-island ``facts`` (see :func:`_parametrize`)."""
     out = list(facts["opened"])
@@ -140,10 +155,11 @@ def _warnings(facts: dict, converged: np.ndarray, flipped: np.ndarray) -> list[s
         )
     mean = facts["pin_mean"]
     if mean.any():
-        out.append(
+        text = (
             f"{int(mean.sum())} pinned vertices have corners pinned to different UVs (first: island "
             f"{np.argmax(mean > 0)}): each is held at their mean"
         )
+        out.append(Notice(text, "pin_conflict"))
     missed = np.flatnonzero(~facts["reached"])
     if missed.size:
         out.append(
@@ -160,6 +176,7 @@ def _warnings(facts: dict, converged: np.ndarray, flipped: np.ndarray) -> list[s
 def _stats(facts: dict, steps: dict) -> dict:
     """The result's counters: the per-island ``facts`` summed, and ``steps``."""
     stats = {key: int(facts[key].sum()) for key in ("extra_vertex", "regularized")}
+    stats["pin_conflicts"] = int(facts["pin_mean"].sum())
     stats.update(steps)
     if "refine_iterations" in steps:
         stats["reseeded"] = {name: int(facts[name].sum()) for name in ("conformal", "tutte")}

@@ -237,6 +237,35 @@ def test_pinned_uvs_hold(scene):
     assert metrics.edge_rms(*triangle_uvs(ob)) == pytest.approx(ref, rel=1e-3)
 
 
+def test_a_vertex_pinned_to_different_uvs_keeps_every_pin_and_is_reported_so(scene, capfd):
+    # the solver holds such a vertex at the mean of its pins; the operator writes each
+    # pinned corner back on its own UV, so its warning must say that, not the solver's
+    V, F = ex.peaks(11)
+    ob = add_mesh("peaks", V, F)
+    edit(ob)
+    unwrap()
+    object_mode()
+    me = ob.data
+    uv = corner_uvs(ob).copy()
+    cv = corner_verts(ob)
+    uv[np.flatnonzero(cv == 60)[0]] += (0.05, 0.0)  # one corner of an interior vertex moved
+    me.uv_layers.active.uv.foreach_set("vector", uv.ravel())
+    layer = me.uv_layers.active
+    if hasattr(layer, "pin_ensure"):
+        layer.pin_ensure()
+    pins = np.isin(cv, [0, 10, 60, 120])
+    layer.pin.foreach_set("value", pins)
+    edit(ob)
+    capfd.readouterr()
+    assert unwrap() == {"FINISHED"}
+    out = capfd.readouterr()
+    object_mode()
+    assert np.array_equal(corner_uvs(ob)[pins].tobytes(), uv[pins].tobytes())
+    text = out.out + out.err
+    assert "1 pinned vertices have corners pinned to different UVs: each corner stays on its pin" in text
+    assert "held at their mean" not in text
+
+
 def test_two_objects_in_edit_mode(scene):
     V1, F1, _ = ex.s_surface(30, 8)
     V2, F2 = ex.peaks(15)
