@@ -150,6 +150,15 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, mar
             rows = fresh[island]
             uv[rows] = _into_unit_square(uv[rows], 0.0)
     if held.any():
+        # pins on one UV (one pinned vertex, say) fix no rotation: such an island turns as
+        # its old UVs lie, so pinning a vertex and unwrapping again does not spin it (after
+        # a pack that rotated it, or a turn by hand)
+        _, _, _, spread = similarity_fit(uv, old, island, w_lock, n, scale=False)
+        _, R_old, _, ok_old = similarity_fit(uv, old, island, np.ones_like(w_lock), n, scale=False)
+        turn = held & ~spread & ok_old & (np.bincount(island, np.abs(_areas(old)), minlength=n) > 0)
+        if turn.any():
+            R_turn = np.where(turn[:, None, None], R_old, np.eye(2))
+            uv = _apply(uv, island, np.ones(n), R_turn, np.zeros((n, 2)))
         s, R, shift, ok = similarity_fit(uv, old, island, w_lock, n, scale=not world_scale)
         s = np.where(held, s, 1.0)
         R = np.where(held[:, None, None], R, np.eye(2))

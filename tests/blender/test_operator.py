@@ -266,6 +266,43 @@ def test_a_vertex_pinned_to_different_uvs_keeps_every_pin_and_is_reported_so(sce
     assert "held at their mean" not in text
 
 
+def test_one_pin_keeps_the_islands_old_turn(scene):
+    # three islands (packing turns islands); turn one by hand, pin one of its vertices where
+    # it is and unwrap again: the island moves onto its pin turned as it was, not in the
+    # solver's frame (before: turned back by a quarter turn)
+    V, F = ex.peaks(9)
+    parts = [add_mesh(f"p{k}", V + [3.0 * k, 0.0, 0.0], F) for k in range(3)]
+    bpy.ops.object.select_all(action="DESELECT")
+    for ob in parts:
+        ob.select_set(True)
+    bpy.context.view_layer.objects.active = parts[0]
+    bpy.ops.object.join()
+    ob = bpy.context.active_object
+    edit(ob)
+    unwrap()
+    object_mode()
+    me = ob.data
+    uv = corner_uvs(ob).copy()
+    cv = corner_verts(ob)
+    mine = cv < len(V)  # the first island's corners
+    centre = uv[mine].mean(axis=0)
+    uv[mine] = centre + (uv[mine] - centre) @ np.array([[0.0, 1.0], [-1.0, 0.0]])  # a quarter turn
+    me.uv_layers.active.uv.foreach_set("vector", uv.ravel())
+    layer = me.uv_layers.active
+    if hasattr(layer, "pin_ensure"):
+        layer.pin_ensure()
+    layer.pin.foreach_set("value", cv == 40)  # the centre vertex of the first island
+    edit(ob)
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    after = corner_uvs(ob).astype(np.float64)
+    a = uv[mine] - uv[cv == 40][0]
+    b = after[mine] - after[cv == 40][0]
+    turn = np.degrees(np.arctan2((a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum(), (a * b).sum(axis=1).sum()))
+    assert abs(turn) < 0.01
+    assert np.array_equal(after[cv == 40], uv[cv == 40])
+
+
 def test_two_objects_in_edit_mode(scene):
     V1, F1, _ = ex.s_surface(30, 8)
     V2, F2 = ex.peaks(15)
