@@ -161,15 +161,19 @@ def run(op, context, opts: Options) -> set:
         tool = context.scene.tool_settings
         sync_was = tool.use_uv_select_sync
         tool.use_uv_select_sync = True
+        # the pack's poll wants an active object with a UV map: the active object may have
+        # had no face selected and no UV map (then the pack would raise, the UVs written)
+        ob = solved[0].obj
         try:
-            bpy.ops.uv.pack_islands(
-                margin=opts.margin,
-                rotate=True,
-                scale=not opts.world_scale,
-                pin=held,
-                pin_method="LOCKED",
-                shape_method=opts.pack_shape,
-            )
+            with context.temp_override(active_object=ob, object=ob, edit_object=ob):
+                bpy.ops.uv.pack_islands(
+                    margin=opts.margin,
+                    rotate=True,
+                    scale=not opts.world_scale,
+                    pin=held,
+                    pin_method="LOCKED",
+                    shape_method=opts.pack_shape,
+                )
         finally:
             tool.use_uv_select_sync = sync_was
     _report(op, solved, time.perf_counter() - t0)

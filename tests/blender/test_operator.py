@@ -1,5 +1,6 @@
 """uv.isometric_unwrap through the real bpy module: values, selection, seams, pins, undo."""
 
+import bmesh
 import numpy as np
 import pytest
 
@@ -318,6 +319,25 @@ def test_two_objects_in_edit_mode(scene):
     # packed together: the two sets of islands do not overlap in UV space
     lo_a, hi_a, lo_b, hi_b = uv_a.min(0), uv_a.max(0), uv_b.min(0), uv_b.max(0)
     assert (hi_a <= lo_b + 1e-6).any() or (hi_b <= lo_a + 1e-6).any()
+
+
+def test_the_pack_runs_when_the_active_object_has_no_uv_map(scene):
+    # found by fuzzing: the active object in edit mode had no face selected and no UV map,
+    # so uv.pack_islands' poll failed and the operator raised with the other's UVs written
+    a = add_mesh("no_uvs", *ex.peaks(5))
+    V, F = ex.peaks(9)
+    b = add_mesh("seamed", V, F, location=(5, 0, 0))
+    mark_seams(b, [(i, i + 1) for i in range(36, 44)])  # a seam across the middle row: two islands
+    assert len(a.data.uv_layers) == 0
+    edit(a, b)
+    bm = bmesh.from_edit_mesh(a.data)
+    for f in bm.faces:  # test set-up on a small mesh: nothing of the active object selected
+        f.select_set(False)
+    bmesh.update_edit_mesh(a.data)
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    uv = corner_uvs(b)
+    assert np.isfinite(uv).all() and uv.min() >= 0.0 and uv.max() <= 1.0 and np.ptp(uv, axis=0).min() > 0.3
 
 
 @pytest.mark.parametrize("operator", ["unwrap", "show_stretch"])
