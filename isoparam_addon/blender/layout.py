@@ -10,7 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["similarity_fit", "place"]
+__all__ = ["FAR", "similarity_fit", "place"]
+
+# UV coordinates beyond this are no layout (a float32 UV there is 1/16 unit coarse), and
+# Blender's packer turns them into NaN or crashes (Convex Hull at 1e8, bpy 5.0.1)
+FAR = 1e6
 
 
 def _sums(island, values, n):
@@ -106,8 +110,9 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, mar
     in_place : bool
         Put every island where its old UVs were: same centroid, the best-fitting
         rotation, and (unless ``world_scale``) the same UV area, so texel density stays.
-        Islands whose old UVs have no area (a mesh never unwrapped) are laid out anew,
-        fitted into [0, 1] unless ``world_scale``.
+        Islands whose old UVs have no area (a mesh never unwrapped), or hold a value that
+        is not finite or beyond ``FAR``, are laid out anew, fitted into [0, 1] unless
+        ``world_scale``.
     world_scale : bool
         Keep mesh units (1 UV unit = 1 world unit) instead of fitting into [0, 1].
     aspect : float, optional
@@ -127,21 +132,26 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, mar
         uv[..., 0] /= aspect
     if not world_scale and not in_place:
         uv = _into_unit_square(uv, margin)
-    w_lock = locked.astype(np.float64)
-    n_locked = _sums(island, w_lock, n)
+    n_locked = _sums(island, locked.astype(np.float64), n)
     held = n_locked > 0
+    # old UVs that are not finite, or far out, are no layout to keep or fit to (the
+    # operator refuses such pins; a corner locked by the UV selection keeps its value)
+    near = (np.abs(old) <= FAR).all(axis=2)
+    usable = np.bincount(island, ~near.all(axis=1), minlength=n) == 0
+    w_lock = (locked & near).astype(np.float64)
+    ref = np.where(near[..., None], old, 0.0)  # the old UVs fitted to (kept ones: ``old``)
     if in_place:
         # rotation from the best fit, size from the old area (texel density kept),
         # centroid onto the old centroid
         ones = np.ones_like(w_lock)
-        _, R, _, ok = similarity_fit(uv, old, island, ones, n, scale=False)
+        _, R, _, ok = similarity_fit(uv, ref, island, ones, n, scale=False)
         a_new = np.bincount(island, np.abs(_areas(uv)), minlength=n)
-        a_old = np.bincount(island, np.abs(_areas(old)), minlength=n)
-        fit = ok & ~held & (a_old > 0) & (a_new > 0)
+        a_old = np.bincount(island, np.abs(_areas(ref)), minlength=n)
+        fit = ok & ~held & usable & (a_old > 0) & (a_new > 0)
         s = np.where(fit & (not world_scale), np.sqrt(a_old / np.where(a_new > 0, a_new, 1.0)), 1.0)
         count = 3 * np.bincount(island, minlength=n)
         c_new = _sums(island, uv, n) / np.maximum(count, 1)[:, None]
-        c_old = _sums(island, old, n) / np.maximum(count, 1)[:, None]
+        c_old = _sums(island, ref, n) / np.maximum(count, 1)[:, None]
         R = np.where(fit[:, None, None], R, np.eye(2))
         shift = np.where(fit[:, None], c_old - s[:, None] * np.einsum("nij,nj->ni", R, c_new), 0.0)
         uv = _apply(uv, island, s, R, shift)
@@ -153,13 +163,13 @@ def place(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, mar
         # pins on one UV (one pinned vertex, say) fix no rotation: such an island turns as
         # its old UVs lie, so pinning a vertex and unwrapping again does not spin it (after
         # a pack that rotated it, or a turn by hand)
-        _, _, _, spread = similarity_fit(uv, old, island, w_lock, n, scale=False)
-        _, R_old, _, ok_old = similarity_fit(uv, old, island, np.ones_like(w_lock), n, scale=False)
-        turn = held & ~spread & ok_old & (np.bincount(island, np.abs(_areas(old)), minlength=n) > 0)
+        _, _, _, spread = similarity_fit(uv, ref, island, w_lock, n, scale=False)
+        _, R_old, _, ok_old = similarity_fit(uv, ref, island, np.ones_like(w_lock), n, scale=False)
+        turn = held & ~spread & ok_old & usable & (np.bincount(island, np.abs(_areas(ref)), minlength=n) > 0)
         if turn.any():
             R_turn = np.where(turn[:, None, None], R_old, np.eye(2))
             uv = _apply(uv, island, np.ones(n), R_turn, np.zeros((n, 2)))
-        s, R, shift, ok = similarity_fit(uv, old, island, w_lock, n, scale=not world_scale)
+        s, R, shift, ok = similarity_fit(uv, ref, island, w_lock, n, scale=not world_scale)
         s = np.where(held, s, 1.0)
         R = np.where(held[:, None, None], R, np.eye(2))
         shift = np.where(held[:, None], shift, 0.0)

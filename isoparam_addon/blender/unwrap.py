@@ -153,7 +153,10 @@ def run(op, context, opts: Options) -> set:
     finally:
         wm.progress_end()
     held = any(s.held.any() for s in solved)
-    if opts.pack and (sum(s.n_islands for s in solved) > 1 or held):
+    far = any(np.abs(s.corner_uv).max() > layout.FAR for s in solved)
+    if far and opts.pack:  # Blender's packer makes NaN of such UVs, or crashes
+        op.report({"WARNING"}, f"Isometric Unwrap: not packed: UVs beyond {layout.FAR:.0e} (far pins, or world scale)")
+    if opts.pack and not far and (sum(s.n_islands for s in solved) > 1 or held):
         # a single island was fitted into the unit square by layout.place already
         # (Blender's pack would spend 0.17 s on it at 100k vertices)
         # with UV sync selection the pack acts on the selected faces, whatever their UVs'
@@ -230,6 +233,15 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             aspect=aspect,
             margin=opts.margin if opts.pack else 0.0,
         )
+        with np.errstate(over="ignore"):
+            stored = uv.astype(np.float32)  # what the UV map would hold
+        if not np.isfinite(stored).all():
+            op.report(
+                {"ERROR"},
+                f"Isometric Unwrap: the UVs of '{sel.name}' would be beyond the range of Blender's UV map "
+                "(True World Scale on a mesh this large?). Nothing was changed",
+            )
+            return None
         solved.append(_Solved(ob, sel, uv, held, res.n_islands, *stretch.measure(sel.V, sel.F, uv), _warnings(res)))
     return solved
 

@@ -76,6 +76,59 @@ def test_bad_meshes_are_reported_and_left_untouched(scene, case, expect):
     assert snapshot(ob) == before
 
 
+def test_uvs_beyond_the_uv_maps_range_are_an_error(scene):
+    # found by fuzzing: True World Scale on a mesh 1e39 across gave FINISHED with inf UVs
+    # (the layout is finite in float64; Blender's UV map is float32)
+    V, F = ex.peaks(9)
+    ob = prepared(V * 1e37, F)
+    ob.scale = (100.0, 100.0, 100.0)
+    before = snapshot(ob)
+    edit(ob)
+    with pytest.raises(RuntimeError, match="beyond the range of Blender's UV map.*Nothing was changed"):
+        bpy.ops.uv.isometric_unwrap(world_scale=True, pack=False)
+    object_mode()
+    assert snapshot(ob) == before
+
+
+def test_far_pins_are_kept_and_the_pack_is_skipped(scene, capfd):
+    # found by fuzzing: a pin at (1e8, 1e8) crashed Blender's packer (Convex Hull) and NaN-ed
+    # every packed island at 1e20; the operator now leaves such a layout unpacked, and says so
+    V, F = ex.peaks(9)
+    ob = prepared(V, F)
+    me = ob.data
+    layer = me.uv_layers.active
+    if hasattr(layer, "pin_ensure"):
+        layer.pin_ensure()
+    pins = np.zeros(len(me.loops), dtype=bool)
+    pins[me.polygons[0].loop_start] = True
+    layer.pin.foreach_set("value", pins)
+    uv = corner_uvs(ob)
+    uv[pins] = 1e8
+    me.uv_layers.active.uv.foreach_set("vector", uv.ravel())
+    edit(ob)
+    capfd.readouterr()
+    assert bpy.ops.uv.isometric_unwrap(pack_shape="CONVEX") == {"FINISHED"}
+    text = capfd.readouterr().out
+    object_mode()
+    after = corner_uvs(ob)
+    assert "not packed: UVs beyond 1e+06" in text
+    assert np.isfinite(after).all() and np.array_equal(after[pins], uv[pins])
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, 3e38])
+def test_unwrapping_in_place_over_broken_old_uvs_lays_the_island_out_anew(scene, value):
+    V, F = ex.peaks(9)
+    ob = prepared(V, F)
+    uv = corner_uvs(ob)
+    uv[0] = value  # an unpinned corner: its old UV is about to be replaced
+    ob.data.uv_layers.active.uv.foreach_set("vector", uv.ravel())
+    edit(ob)
+    assert bpy.ops.uv.isometric_unwrap(pack=False) == {"FINISHED"}
+    object_mode()
+    after = corner_uvs(ob)
+    assert np.isfinite(after).all() and after.min() >= 0.0 and after.max() <= 1.0
+
+
 def test_the_message_names_mesh_elements(scene):
     V, F = ex.peaks(9)
     ob = prepared(V, F)
