@@ -77,6 +77,8 @@ class Selection:
         The current UVs of every corner of the mesh (all faces).
     locked : (corners,) bool
         Corners whose UV must not move: pinned, or (UV editor, sync off) not UV-selected.
+    pinned : (corners,) bool
+        The pinned ones among them.
     face_material : (t,) int64
     uv_name : str
     """
@@ -91,6 +93,7 @@ class Selection:
     diagonals: np.ndarray
     uv: np.ndarray
     locked: np.ndarray
+    pinned: np.ndarray
     face_material: np.ndarray
     uv_name: str
     stats: dict = field(default_factory=dict)
@@ -133,6 +136,7 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
     material = _attribute(me, ["material_index"], 1, np.int32, nf)
     uv = np.zeros((nl, 2), dtype=np.float32)
     locked = np.zeros(nl, dtype=bool)
+    pins = None
     if uv_name:
         flat = np.empty(2 * nl, dtype=np.float32)
         me.uv_layers[uv_name].uv.foreach_get("vector", flat)
@@ -171,6 +175,7 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
         diagonals=local[np.stack([tri_verts[inner], tri_verts[:, [1, 2, 0]][inner]], axis=1)].astype(np.int64),
         uv=uv,
         locked=locked,
+        pinned=np.zeros(nl, dtype=bool) if pins is None else pins,
         face_material=(np.zeros(len(tri_poly), np.int64) if material is None else material[tri_poly].astype(np.int64)),
         uv_name=uv_name,
     )
@@ -206,6 +211,23 @@ def write_uvs(mesh, uv_name: str, uv: np.ndarray) -> None:
     """Write every corner's UV (corners, 2) into the named UV map (object mode only)."""
     mesh.uv_layers[uv_name].uv.foreach_set("vector", np.ascontiguousarray(uv, dtype=np.float32).ravel())
     mesh.update()
+
+
+def set_pins(mesh, uv_name: str, pins: np.ndarray | None) -> np.ndarray | None:
+    """Set the pins of a UV map (object mode) to ``pins`` (corners,) bool, or remove them
+    (None). Returns what they were (None: the map had no pin attribute)."""
+    name = f".pn.{uv_name}"
+    was = _attribute(mesh, [name], 1, bool, len(mesh.loops))
+    if pins is None:
+        if was is not None:
+            mesh.attributes.remove(mesh.attributes[name])
+    else:
+        layer = mesh.uv_layers[uv_name]
+        if hasattr(layer, "pin_ensure"):  # 5.0 creates pins lazily
+            layer.pin_ensure()
+        layer.pin.foreach_set("value", np.ascontiguousarray(pins, dtype=bool))
+    mesh.update()
+    return was
 
 
 def polygon_of_corner(mesh) -> np.ndarray:

@@ -159,28 +159,52 @@ def run(op, context, opts: Options) -> set:
     if opts.pack and not far and (sum(s.n_islands for s in solved) > 1 or held):
         # a single island was fitted into the unit square by layout.place already
         # (Blender's pack would spend 0.17 s on it at 100k vertices)
-        # with UV sync selection the pack acts on the selected faces, whatever their UVs'
-        # own selection (off by default in 4.2); the setting is restored right after
-        tool = context.scene.tool_settings
-        sync_was = tool.use_uv_select_sync
-        tool.use_uv_select_sync = True
-        # the pack's poll wants an active object with a UV map: the active object may have
-        # had no face selected and no UV map (then the pack would raise, the UVs written)
-        ob = solved[0].obj
-        try:
-            with context.temp_override(active_object=ob, object=ob, edit_object=ob):
-                bpy.ops.uv.pack_islands(
-                    margin=opts.margin,
-                    rotate=True,
-                    scale=not opts.world_scale,
-                    pin=held,
-                    pin_method="LOCKED",
-                    shape_method=opts.pack_shape,
-                )
-        finally:
-            tool.use_uv_select_sync = sync_was
+        _pack(context, solved, opts, held, uv_editor and not sync)
     _report(op, solved, time.perf_counter() - t0)
     return {"FINISHED"}
+
+
+def _pack(context, solved, opts: Options, held: bool, uv_selection_locks: bool) -> None:
+    """``uv.pack_islands`` over what was unwrapped, islands with locked corners left where they are.
+
+    The packer keeps only pinned islands in place, so corners locked by the UV selection
+    (UV editor, sync off) are pinned for the pack and the pins put back after it (object
+    mode, only then). There the pack acts on the selected UVs, as the artist sees them;
+    elsewhere sync selection is switched on for it, so that it acts on the selected faces
+    whatever their UVs' own selection (off by default in 4.2), and restored right after.
+    """
+    extra = [(s, s.sel.locked & ~s.sel.pinned) for s in solved] if uv_selection_locks else []
+    extra = [(s, mask) for s, mask in extra if mask.any()]
+    restore = []
+    if extra:
+        with _object_mode(context):
+            for s, mask in extra:
+                name = mesh_io.uv_layer_name(s.obj.data)
+                restore.append((s.obj.data, name, mesh_io.set_pins(s.obj.data, name, s.sel.pinned | mask)))
+    tool = context.scene.tool_settings
+    sync_was = tool.use_uv_select_sync
+    if not sync_was and not uv_selection_locks:  # (setting it at all resyncs the UV selection)
+        tool.use_uv_select_sync = True
+    # the pack's poll wants an active object with a UV map: the active object may have had
+    # no face selected and no UV map (then the pack would raise, the UVs written)
+    ob = solved[0].obj
+    try:
+        with context.temp_override(active_object=ob, object=ob, edit_object=ob):
+            bpy.ops.uv.pack_islands(
+                margin=opts.margin,
+                rotate=True,
+                scale=not opts.world_scale,
+                pin=held,
+                pin_method="LOCKED",
+                shape_method=opts.pack_shape,
+            )
+    finally:
+        if tool.use_uv_select_sync != sync_was:
+            tool.use_uv_select_sync = sync_was
+        if restore:
+            with _object_mode(context):
+                for me, name, was in restore:
+                    mesh_io.set_pins(me, name, was)
 
 
 def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):

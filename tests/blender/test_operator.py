@@ -7,7 +7,7 @@ import pytest
 from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import metrics, parametrize
 
-from .conftest import add_mesh, bpy, corner_uvs, corner_verts, edit, object_mode, positions, triangles
+from .conftest import add_mesh, bpy, corner_uvs, corner_verts, edit, object_mode, positions, snapshot, triangles
 
 
 def unwrap(**kw):
@@ -319,6 +319,57 @@ def test_two_objects_in_edit_mode(scene):
     # packed together: the two sets of islands do not overlap in UV space
     lo_a, hi_a, lo_b, hi_b = uv_a.min(0), uv_a.max(0), uv_b.min(0), uv_b.max(0)
     assert (hi_a <= lo_b + 1e-6).any() or (hi_b <= lo_a + 1e-6).any()
+
+
+def select_uvs(ob, picked):
+    """Select exactly the UVs of these corners (edit mode), test set-up on a small mesh."""
+    bm = bmesh.from_edit_mesh(ob.data)
+    uvl = bm.loops.layers.uv.active
+    for f in bm.faces:
+        for loop in f.loops:
+            if hasattr(loop, "uv_select_vert_set"):  # 5.0
+                loop.uv_select_vert_set(bool(picked[loop.index]))
+            else:  # 4.2 - 4.5
+                loop[uvl].select = bool(picked[loop.index])
+    bmesh.update_edit_mesh(ob.data)
+
+
+def in_uv_editor(call):
+    area = bpy.context.screen.areas[0]
+    area.type = "IMAGE_EDITOR"
+    area.ui_type = "UV"
+    region = next(r for r in area.regions if r.type == "WINDOW")
+    with bpy.context.temp_override(area=area, region=region, space_data=area.spaces.active):
+        assert bpy.context.space_data.type == "IMAGE_EDITOR"
+        return call()
+
+
+@pytest.mark.parametrize("pack", [False, True])
+def test_uv_editor_without_sync_select_keeps_unselected_uvs_and_the_selection(scene, pack):
+    # found by fuzzing: with Pack on the packer moved the island, unselected UVs and all,
+    # since only real pins keep an island in place, and switching sync select on and off
+    # for it rewrote the UV selection (5.0)
+    V, F = ex.peaks(9)
+    ob = add_mesh("peaks", V, F)
+    picked = V[corner_verts(ob), 0] > 0.1  # UVs of the vertices right of the middle
+    edit(ob)
+    bpy.ops.uv.unwrap()
+    settings = bpy.context.scene.tool_settings
+    settings.use_uv_select_sync = False
+    try:
+        select_uvs(ob, picked)
+        object_mode()
+        before = corner_uvs(ob).copy()
+        state = {k: v for k, v in snapshot(ob).items() if "select" in k or k.startswith((".vs.", ".es.", ".pn."))}
+        edit(ob, select_all=False)
+        assert in_uv_editor(lambda: unwrap(pack=pack)) == {"FINISHED"}
+        object_mode()
+        after = corner_uvs(ob)
+        assert np.array_equal(after[~picked], before[~picked])
+        assert not np.allclose(after[picked], before[picked])
+        assert {k: v for k, v in snapshot(ob).items() if k in state or k.startswith(".pn.")} == state
+    finally:
+        settings.use_uv_select_sync = True
 
 
 def test_the_pack_runs_when_the_active_object_has_no_uv_map(scene):
