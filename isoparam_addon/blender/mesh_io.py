@@ -149,6 +149,8 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
             if picked is not None:
                 locked |= ~picked
     tri_loops, tri_poly, loop_total = triangles(me)
+    if not (loop_total == 3).all():
+        tri_loops = _other_diagonal(tri_loops, tri_poly, loop_total, corner_vert, edge_verts, nv)
     keep = chosen[tri_poly]
     tri_loops, tri_poly = tri_loops[keep], tri_poly[keep]
     tri_verts = corner_vert[tri_loops]
@@ -156,9 +158,7 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
     if (loop_total == 3).all():  # triangles only: no diagonals
         inner = np.zeros(tri_loops.shape, dtype=bool)
     else:
-        k = loop_total[tri_poly][:, None]
-        step = (tri_loops[:, [1, 2, 0]] - tri_loops) % k
-        inner = (step != 1) & (step != k - 1)
+        inner = _diagonals(tri_loops, tri_poly, loop_total)
     used = np.zeros(nv, dtype=bool)
     used[tri_verts.ravel()] = True
     vert_ids = np.flatnonzero(used)
@@ -211,6 +211,47 @@ def write_uvs(mesh, uv_name: str, uv: np.ndarray) -> None:
     """Write every corner's UV (corners, 2) into the named UV map (object mode only)."""
     mesh.uv_layers[uv_name].uv.foreach_set("vector", np.ascontiguousarray(uv, dtype=np.float32).ravel())
     mesh.update()
+
+
+def _diagonals(tri_loops, tri_poly, loop_total):
+    """Triangle sides inside their face (t, 3) bool: the corners are not neighbours."""
+    k = loop_total[tri_poly][:, None]
+    step = (tri_loops[:, [1, 2, 0]] - tri_loops) % k
+    return (step != 1) & (step != k - 1)
+
+
+def _other_diagonal(tri_loops, tri_poly, loop_total, corner_vert, edge_verts, nv):
+    """Blender's triangulation with quads split along their other diagonal where theirs
+    lies on a mesh edge or on another face's diagonal.
+
+    There two faces share three vertices, and the triangles would overlap: the same
+    triangle twice, or three triangles on one side (found by fuzzing: a quad with a
+    triangle, or a loose edge, along its diagonal; coarse meshes after Limited Dissolve).
+    Blender's own unwrap takes such meshes; the other diagonal makes them manifold.
+    """
+    inner = _diagonals(tri_loops, tri_poly, loop_total)
+    t, side = np.nonzero(inner)
+    a = corner_vert[tri_loops[t, side]].astype(np.int64)
+    b = corner_vert[tri_loops[t, (side + 1) % 3]].astype(np.int64)
+    key = np.minimum(a, b) * nv + np.maximum(a, b)
+    pairs = np.unique(np.stack([key, tri_poly[t]], axis=1), axis=0)  # each face's diagonals once
+    edge_key = np.sort(edge_verts.astype(np.int64), axis=1) @ np.array([nv, 1])
+    shared, count = np.unique(pairs[:, 0], return_counts=True)
+    clash = np.isin(pairs[:, 0], edge_key) | np.isin(pairs[:, 0], shared[count > 1])
+    quads = np.unique(pairs[clash, 1])
+    quads = quads[loop_total[quads] == 4]
+    if not quads.size:
+        return tri_loops
+    rows = np.flatnonzero(np.isin(tri_poly, quads))
+    rows = rows[np.argsort(tri_poly[rows], kind="stable")].reshape(-1, 2)  # the two triangles of each
+    start = tri_loops[rows].reshape(len(rows), -1).min(axis=1)  # its first corner
+    offset = tri_loops[rows] - start[:, None, None]  # (q, 2, 3) corners 0..3 of each quad
+    on_start = ((offset == 0).any(axis=2) & (offset == 2).any(axis=2)).any(axis=1)  # diagonal 0 - 2 now
+    s = start[:, None]
+    flipped = np.where(on_start[:, None, None], [[0, 1, 3], [1, 2, 3]], [[0, 1, 2], [0, 2, 3]])
+    out = tri_loops.copy()
+    out[rows.ravel()] = (s[:, None] + flipped).reshape(-1, 3)
+    return out
 
 
 def set_pins(mesh, uv_name: str, pins: np.ndarray | None) -> np.ndarray | None:

@@ -55,7 +55,27 @@ def _describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
             a, b = (int(sel.vert_ids[v]) for v in err.edges[0])
             text = text.replace(f"({err.edges[0][0]}, {err.edges[0][1]})", f"between vertices {a} and {b}")
     hint = _HINTS.get(err.kind, "")
+    if err.kind == "duplicate_face" and err.count:
+        overlap = _overlapping_faces(sel, int(err.indices[0]))
+        if overlap is not None:  # two faces, not a face given twice: Merge by Distance does not help
+            a, b = overlap
+            text = (
+                f"{err.count} triangle(s) of Blender's triangulation come twice (first: faces {a} and {b} "
+                "share three vertices, so one lies across the other)"
+            )
+            hint = "Delete or dissolve one of the two faces, or move a vertex off the other's diagonal"
     return f"'{sel.name}': {text}" + (f". {hint}" if hint else "")
+
+
+def _overlapping_faces(sel: mesh_io.Selection, t: int) -> tuple[int, int] | None:
+    """The mesh faces of triangle ``t`` and of the earlier triangle with the same vertices,
+    when they are different faces that are not the same vertices twice."""
+    key = np.sort(sel.F, axis=1)
+    earlier = int(np.flatnonzero((key == key[t]).all(axis=1))[0])
+    a, b = int(sel.tri_poly[earlier]), int(sel.tri_poly[t])
+    if a == b or np.count_nonzero(sel.tri_poly == a) == np.count_nonzero(sel.tri_poly == b) == 1:
+        return None  # one face folded onto itself, or a triangle given twice
+    return a, b
 
 
 def _aspect(obj, sel: mesh_io.Selection) -> float | None:

@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 
 from isoparam_addon.blender import mesh_io
+from isoparam_addon.blender import unwrap as unwrap_module
+from isoparam_addon.solver import InvalidMeshError, metrics
 from isoparam_addon.solver import examples as ex
 
 from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, snapshot
@@ -127,6 +129,69 @@ def test_unwrapping_in_place_over_broken_old_uvs_lays_the_island_out_anew(scene,
     object_mode()
     after = corner_uvs(ob)
     assert np.isfinite(after).all() and after.min() >= 0.0 and after.max() <= 1.0
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["a triangle on a quad's diagonal", "two quads on three vertices", "loose seams on quads' diagonals"],
+)
+def test_quads_whose_diagonal_clashes_are_split_along_the_other(scene, case):
+    # found by fuzzing: Blender's triangulation made these non-manifold ("edge shared by
+    # more than two faces", "faces repeat the vertices"), where Blender's own unwrap works
+    E, seams = [], ()
+    if case == "a triangle on a quad's diagonal":
+        V, F = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, 0.5, 1)], [(0, 1, 2, 3), (0, 2, 4)]
+    elif case == "two quads on three vertices":
+        V, F = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (1.2, 1.3, 0.5)], [(0, 1, 2, 3), (0, 1, 2, 4)]
+    else:
+        V = [(x, y, 0) for y in range(4) for x in range(4)]
+        F = [(4 * j + i, 4 * j + i + 1, 4 * j + i + 5, 4 * j + i + 4) for j in range(3) for i in range(3)]
+        E, seams = [(0, 5), (5, 10)], {(0, 5), (5, 10)}
+    me = bpy.data.meshes.new("m")
+    me.from_pydata(V, E, F)
+    me.update()
+    ob = bpy.data.objects.new("m", me)
+    bpy.context.scene.collection.objects.link(ob)
+    me.edges.foreach_set("use_seam", [tuple(sorted(e.vertices)) in seams for e in me.edges])  # a small test mesh
+    edit(ob)
+    assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
+    object_mode()
+    uv = corner_uvs(ob)
+    assert np.isfinite(uv).all() and np.ptp(uv, axis=0).min() > 0.1
+    if case == "loose seams on quads' diagonals":  # the flat grid stays one undistorted island
+        assert metrics.edge_rms(np.array(V, float), *_triangles_and_uvs(ob)) < 1e-5
+
+
+def _triangles_and_uvs(ob):
+    me = ob.data
+    me.calc_loop_triangles()
+    loops = np.array([t.loops[:] for t in me.loop_triangles])  # a small test mesh
+    verts = np.array([t.vertices[:] for t in me.loop_triangles])
+    return verts, corner_uvs(ob)[loops].astype(np.float64)
+
+
+def test_overlapping_faces_are_named_in_the_message():
+    # two faces whose triangulations share a triangle (n-gons the other diagonal cannot fix)
+    sel = mesh_io.Selection(
+        name="m",
+        V=np.zeros((6, 3)),
+        F=np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [2, 1, 0], [0, 2, 5]]),
+        tri_loops=np.zeros((5, 3), np.int64),
+        tri_poly=np.array([0, 0, 0, 1, 1]),
+        vert_ids=np.arange(6),
+        seams=np.zeros((0, 2), np.int64),
+        diagonals=np.zeros((0, 2), np.int64),
+        uv=np.zeros((0, 2), np.float32),
+        locked=np.zeros(0, bool),
+        pinned=np.zeros(0, bool),
+        face_material=np.zeros(5, np.int64),
+        uv_name="UVMap",
+    )
+    err = InvalidMeshError(
+        "duplicate_face", "1 face repeat the vertices of an earlier face (first: face 3)", "face", [3]
+    )
+    text = unwrap_module._describe(err, sel)
+    assert "faces 0 and 1 share three vertices" in text and "Delete or dissolve one of the two faces" in text
 
 
 def test_the_message_names_mesh_elements(scene):
