@@ -8,7 +8,7 @@ names that moved between Blender 4.2 and 5.0 are looked up with fallbacks.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -20,6 +20,8 @@ __all__ = [
     "uv_layer_name",
     "polygon_of_corner",
     "write_face_colours",
+    "other_diagonals",
+    "set_pins",
 ]
 
 
@@ -149,8 +151,6 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
             if picked is not None:
                 locked |= ~picked
     tri_loops, tri_poly, loop_total = triangles(me)
-    if not (loop_total == 3).all():
-        tri_loops = _other_diagonal(tri_loops, tri_poly, loop_total, corner_vert, edge_verts, nv)
     keep = chosen[tri_poly]
     tri_loops, tri_poly = tri_loops[keep], tri_poly[keep]
     tri_verts = corner_vert[tri_loops]
@@ -214,44 +214,52 @@ def write_uvs(mesh, uv_name: str, uv: np.ndarray) -> None:
 
 
 def _diagonals(tri_loops, tri_poly, loop_total):
-    """Triangle sides inside their face (t, 3) bool: the corners are not neighbours."""
+    """Triangle sides inside their face (t, 3) bool: the corners are not neighbours.
+    ``loop_total[tri_poly]`` is each triangle's face's corner count."""
     k = loop_total[tri_poly][:, None]
     step = (tri_loops[:, [1, 2, 0]] - tri_loops) % k
     return (step != 1) & (step != k - 1)
 
 
-def _other_diagonal(tri_loops, tri_poly, loop_total, corner_vert, edge_verts, nv):
-    """Blender's triangulation with quads split along their other diagonal where theirs
-    lies on a mesh edge or on another face's diagonal.
+def other_diagonals(sel: Selection) -> Selection | None:
+    """``sel`` with its quads split along their other diagonal where theirs lies on another
+    triangle's side, another face's diagonal or a seam; None if there is no such quad.
 
-    There two faces share three vertices, and the triangles would overlap: the same
-    triangle twice, or three triangles on one side (found by fuzzing: a quad with a
-    triangle, or a loose edge, along its diagonal; coarse meshes after Limited Dissolve).
-    Blender's own unwrap takes such meshes; the other diagonal makes them manifold.
+    There two faces share three vertices and Blender's triangles overlap: the same triangle
+    twice, or three triangles on one side (found by fuzzing: a quad with a triangle, or a
+    loose seam edge, along its diagonal; coarse meshes after Limited Dissolve), which the
+    solver refuses. Blender's own unwrap takes such meshes; the other diagonal makes them
+    manifold. Only tried when the solver refuses (it costs a few sorts of the corners).
     """
-    inner = _diagonals(tri_loops, tri_poly, loop_total)
-    t, side = np.nonzero(inner)
-    a = corner_vert[tri_loops[t, side]].astype(np.int64)
-    b = corner_vert[tri_loops[t, (side + 1) % 3]].astype(np.int64)
-    key = np.minimum(a, b) * nv + np.maximum(a, b)
-    pairs = np.unique(np.stack([key, tri_poly[t]], axis=1), axis=0)  # each face's diagonals once
-    edge_key = np.sort(edge_verts.astype(np.int64), axis=1) @ np.array([nv, 1])
-    shared, count = np.unique(pairs[:, 0], return_counts=True)
-    clash = np.isin(pairs[:, 0], edge_key) | np.isin(pairs[:, 0], shared[count > 1])
-    quads = np.unique(pairs[clash, 1])
+    tri_loops, tri_poly, F = sel.tri_loops, sel.tri_poly, sel.F
+    polys, per_poly = np.unique(tri_poly, return_inverse=True)
+    loop_total = np.bincount(per_poly) + 2  # a face of k corners has k - 2 triangles
+    total = loop_total[per_poly]
+    inner = _diagonals(tri_loops, np.arange(len(tri_poly)), total)
+    n = len(sel.V)
+    key = np.minimum(F, F[:, [1, 2, 0]]) * n + np.maximum(F, F[:, [1, 2, 0]])  # (t, 3) sides
+    diag = np.unique(np.stack([key[inner], per_poly[np.nonzero(inner)[0]]], axis=1), axis=0)  # once per face
+    shared, count = np.unique(diag[:, 0], return_counts=True)
+    seams = np.sort(sel.seams, axis=1) @ np.array([n, 1]) if len(sel.seams) else np.zeros(0, np.int64)
+    clash = np.isin(diag[:, 0], np.concatenate([key[~inner], seams, shared[count > 1]]))
+    quads = np.unique(diag[clash, 1])
     quads = quads[loop_total[quads] == 4]
     if not quads.size:
-        return tri_loops
-    rows = np.flatnonzero(np.isin(tri_poly, quads))
-    rows = rows[np.argsort(tri_poly[rows], kind="stable")].reshape(-1, 2)  # the two triangles of each
+        return None
+    rows = np.flatnonzero(np.isin(per_poly, quads))
+    rows = rows[np.argsort(per_poly[rows], kind="stable")].reshape(-1, 2)  # each quad's two triangles
     start = tri_loops[rows].reshape(len(rows), -1).min(axis=1)  # its first corner
-    offset = tri_loops[rows] - start[:, None, None]  # (q, 2, 3) corners 0..3 of each quad
+    offset = tri_loops[rows] - start[:, None, None]  # corners 0..3 of each quad, (q, 2, 3)
     on_start = ((offset == 0).any(axis=2) & (offset == 2).any(axis=2)).any(axis=1)  # diagonal 0 - 2 now
-    s = start[:, None]
-    flipped = np.where(on_start[:, None, None], [[0, 1, 3], [1, 2, 3]], [[0, 1, 2], [0, 2, 3]])
-    out = tri_loops.copy()
-    out[rows.ravel()] = (s[:, None] + flipped).reshape(-1, 3)
-    return out
+    split = np.where(on_start[:, None, None], [[0, 1, 3], [1, 2, 3]], [[0, 1, 2], [0, 2, 3]])
+    vert = np.full(int(tri_loops.max()) + 1, -1, dtype=np.int64)
+    vert[tri_loops.ravel()] = F.ravel()  # each quad's four corners are in its two triangles
+    new_loops = tri_loops.copy()
+    new_loops[rows.ravel()] = (start[:, None, None] + split).reshape(-1, 3)
+    new_F = vert[new_loops]
+    inner = _diagonals(new_loops, np.arange(len(tri_poly)), total)
+    diagonals = np.stack([new_F[inner], new_F[:, [1, 2, 0]][inner]], axis=1)
+    return replace(sel, tri_loops=new_loops, F=new_F, diagonals=diagonals)
 
 
 def set_pins(mesh, uv_name: str, pins: np.ndarray | None) -> np.ndarray | None:

@@ -227,6 +227,25 @@ def _pack(context, solved, opts: Options, held: bool, uv_selection_locks: bool) 
                     mesh_io.set_pins(me, name, was)
 
 
+_OVERLAP = ("duplicate_face", "non_manifold_edge")  # what overlapping triangles raise
+
+
+def _solve(sel: mesh_io.Selection, opts: Options):
+    locked = sel.locked[sel.tri_loops]
+    old = np.take(sel.uv, sel.tri_loops, axis=0).astype(np.float64)
+    return parametrize(
+        sel.V,
+        sel.F,
+        sel.seams,
+        pack=True,
+        split_bowties=True,
+        refine=opts.refine,
+        pins=(locked, old) if locked.any() else None,
+        inner_edges=sel.diagonals,
+        extra_cuts=opts.extra_cuts,
+    )
+
+
 def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
     """Read and solve every mesh; None (after an ERROR report) if any cannot be solved."""
     selections = []
@@ -240,20 +259,17 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
         return None
     solved = []
     for k, (ob, sel) in enumerate(selections):
-        locked = sel.locked[sel.tri_loops]
-        old = np.take(sel.uv, sel.tri_loops, axis=0).astype(np.float64)
         try:
-            res = parametrize(
-                sel.V,
-                sel.F,
-                sel.seams,
-                pack=True,
-                split_bowties=True,
-                refine=opts.refine,
-                pins=(locked, old) if locked.any() else None,
-                inner_edges=sel.diagonals,
-                extra_cuts=opts.extra_cuts,
-            )
+            try:
+                res = _solve(sel, opts)
+            except InvalidMeshError as err:
+                # quads split along a diagonal that another face uses too (a triangle on it,
+                # or two quads on three vertices) overlap: try their other diagonal
+                other = mesh_io.other_diagonals(sel) if err.kind in _OVERLAP else None
+                if other is None:
+                    raise
+                sel = other
+                res = _solve(sel, opts)
         except InvalidMeshError as err:
             op.report({"ERROR"}, "Isometric Unwrap: " + _describe(err, sel) + ". Nothing was changed")
             return None
@@ -266,6 +282,8 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             return None
         wm.progress_update(len(objects) + k)
         aspect = _aspect(ob, sel) if opts.correct_aspect else None
+        locked = sel.locked[sel.tri_loops]
+        old = np.take(sel.uv, sel.tri_loops, axis=0).astype(np.float64)
         uv, held = layout.place(
             res.corner_uv,
             res.face_island,
