@@ -21,7 +21,10 @@ __all__ = [
     "polygon_of_corner",
     "write_face_colours",
     "other_diagonals",
+    "pins",
     "set_pins",
+    "uv_selection",
+    "set_uv_selection",
 ]
 
 
@@ -163,7 +166,13 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
     used[tri_verts.ravel()] = True
     vert_ids = np.flatnonzero(used)
     local = np.cumsum(used) - 1
-    seam_edges = edge_verts[seam & used[edge_verts[:, 0]] & used[edge_verts[:, 1]]]
+    # seams on edges of the unwrapped faces only, as Blender's unwrap: a loose seam edge, or
+    # one of another face, along a quad's diagonal would cut the quad in two
+    if seam.any():
+        on_face = np.zeros(ne, dtype=bool)
+        on_face[_attribute(me, [".corner_edge"], 1, np.int32, nl)[tri_loops.ravel()]] = True
+        seam &= on_face
+    seam_edges = edge_verts[seam]
     return Selection(
         name=obj.name,
         V=pos[vert_ids],
@@ -223,13 +232,14 @@ def _diagonals(tri_loops, tri_poly, loop_total):
 
 def other_diagonals(sel: Selection) -> Selection | None:
     """``sel`` with its quads split along their other diagonal where theirs lies on another
-    triangle's side, another face's diagonal or a seam; None if there is no such quad.
+    triangle's side or another face's diagonal; None if there is no such quad.
 
     There two faces share three vertices and Blender's triangles overlap: the same triangle
-    twice, or three triangles on one side (found by fuzzing: a quad with a triangle, or a
-    loose seam edge, along its diagonal; coarse meshes after Limited Dissolve), which the
-    solver refuses. Blender's own unwrap takes such meshes; the other diagonal makes them
-    manifold. Only tried when the solver refuses (it costs a few sorts of the corners).
+    twice, or three triangles on one side (found by fuzzing: a quad with a triangle along
+    its diagonal; coarse meshes after Limited Dissolve), which the solver refuses. Blender's
+    own unwrap takes such meshes; the other diagonal makes them manifold (not for a concave
+    quad, whose other diagonal runs outside it). Only tried when the solver refuses (it
+    costs a few sorts of the corners).
     """
     tri_loops, tri_poly, F = sel.tri_loops, sel.tri_poly, sel.F
     polys, per_poly = np.unique(tri_poly, return_inverse=True)
@@ -240,8 +250,7 @@ def other_diagonals(sel: Selection) -> Selection | None:
     key = np.minimum(F, F[:, [1, 2, 0]]) * n + np.maximum(F, F[:, [1, 2, 0]])  # (t, 3) sides
     diag = np.unique(np.stack([key[inner], per_poly[np.nonzero(inner)[0]]], axis=1), axis=0)  # once per face
     shared, count = np.unique(diag[:, 0], return_counts=True)
-    seams = np.sort(sel.seams, axis=1) @ np.array([n, 1]) if len(sel.seams) else np.zeros(0, np.int64)
-    clash = np.isin(diag[:, 0], np.concatenate([key[~inner], seams, shared[count > 1]]))
+    clash = np.isin(diag[:, 0], np.concatenate([key[~inner], shared[count > 1]]))
     quads = np.unique(diag[clash, 1])
     quads = quads[loop_total[quads] == 4]
     if not quads.size:
@@ -254,21 +263,35 @@ def other_diagonals(sel: Selection) -> Selection | None:
     split = np.where(on_start[:, None, None], [[0, 1, 3], [1, 2, 3]], [[0, 1, 2], [0, 2, 3]])
     vert = np.full(int(tri_loops.max()) + 1, -1, dtype=np.int64)
     vert[tri_loops.ravel()] = F.ravel()  # each quad's four corners are in its two triangles
+    corners = start[:, None, None] + split  # (q, 2, 3) loops of the new triangles
+    # a concave quad's other diagonal runs outside it: its new triangles would face away
+    P = sel.V[vert[corners]]  # (q, 2, 3, 3)
+    normal = np.cross(P[:, :, 1] - P[:, :, 0], P[:, :, 2] - P[:, :, 0])
+    Q = sel.V[F[rows]]
+    face = np.cross(Q[:, :, 1] - Q[:, :, 0], Q[:, :, 2] - Q[:, :, 0]).sum(axis=1)  # (q, 3)
+    convex = (np.einsum("qtk,qk->qt", normal, face) > 0).all(axis=1)
+    if not convex.any():
+        return None
+    rows, corners = rows[convex], corners[convex]
     new_loops = tri_loops.copy()
-    new_loops[rows.ravel()] = (start[:, None, None] + split).reshape(-1, 3)
+    new_loops[rows.ravel()] = corners.reshape(-1, 3)
     new_F = vert[new_loops]
     inner = _diagonals(new_loops, np.arange(len(tri_poly)), total)
     diagonals = np.stack([new_F[inner], new_F[:, [1, 2, 0]][inner]], axis=1)
     return replace(sel, tri_loops=new_loops, F=new_F, diagonals=diagonals)
 
 
-def set_pins(mesh, uv_name: str, pins: np.ndarray | None) -> np.ndarray | None:
-    """Set the pins of a UV map (object mode) to ``pins`` (corners,) bool, or remove them
-    (None). Returns what they were (None: the map had no pin attribute)."""
+def pins(mesh, uv_name: str) -> np.ndarray | None:
+    """The pins of a UV map (corners,) bool (object mode); None if it has no pin attribute."""
+    return _attribute(mesh, [f".pn.{uv_name}"], 1, bool, len(mesh.loops))
+
+
+def set_pins(mesh, uv_name: str, pins: np.ndarray | None) -> None:
+    """Set the pins of a UV map (object mode) to ``pins`` (corners,) bool, or remove its
+    pin attribute (None), as :func:`pins` read them."""
     name = f".pn.{uv_name}"
-    was = _attribute(mesh, [name], 1, bool, len(mesh.loops))
     if pins is None:
-        if was is not None:
+        if mesh.attributes.get(name) is not None:
             mesh.attributes.remove(mesh.attributes[name])
     else:
         layer = mesh.uv_layers[uv_name]
@@ -276,7 +299,33 @@ def set_pins(mesh, uv_name: str, pins: np.ndarray | None) -> np.ndarray | None:
             layer.pin_ensure()
         layer.pin.foreach_set("value", np.ascontiguousarray(pins, dtype=bool))
     mesh.update()
-    return was
+
+
+def _uv_selection_names(uv_name: str) -> list[str]:
+    return [".uv_select_vert", ".uv_select_edge", ".uv_select_face", f".vs.{uv_name}", f".es.{uv_name}"]  # 5.0; 4.x
+
+
+def uv_selection(mesh, uv_name: str) -> dict:
+    """The UV selection (object mode): each attribute that holds it (5.0 or 4.x names) as a
+    bool array, or None where it does not exist."""
+    sizes = {"CORNER": len(mesh.loops), "FACE": len(mesh.polygons)}
+    out = {}
+    for name in _uv_selection_names(uv_name):
+        attr = mesh.attributes.get(name)
+        out[name] = None if attr is None else _attribute(mesh, [name], 1, bool, sizes[attr.domain])
+    return out
+
+
+def set_uv_selection(mesh, state: dict) -> None:
+    """Put back a UV selection read by :func:`uv_selection` (object mode)."""
+    for name, values in state.items():
+        attr = mesh.attributes.get(name)
+        if values is None:
+            if attr is not None:
+                mesh.attributes.remove(attr)
+        elif attr is not None:
+            attr.data.foreach_set("value", values)
+    mesh.update()
 
 
 def polygon_of_corner(mesh) -> np.ndarray:

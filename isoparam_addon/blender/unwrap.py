@@ -187,34 +187,42 @@ def run(op, context, opts: Options) -> set:
 def _pack(context, solved, opts: Options, held: bool, uv_selection_locks: bool) -> None:
     """``uv.pack_islands`` over what was unwrapped, islands with locked corners left where they are.
 
-    The packer keeps only pinned islands in place, so corners locked by the UV selection
-    (UV editor, sync off) are pinned for the pack and the pins put back after it (object
-    mode, only then). There the pack acts on the selected UVs, as the artist sees them;
-    elsewhere sync selection is switched on for it, so that it acts on the selected faces
-    whatever their UVs' own selection (off by default in 4.2), and restored right after.
+    The pack runs with sync selection on, so that it acts on whole selected faces whatever
+    their UVs' own selection (off by default in 4.2; with it off, Blender's packer takes
+    only faces whose UVs are all selected and would tear an island in two). It keeps only
+    pinned islands in place, so corners locked by the UV selection (UV editor, sync off)
+    are pinned for it; switching sync selection rewrites the UV selection (5.0), so there
+    the UV selection and the pins are put back after it (object mode, only then).
     """
-    extra = [(s, s.sel.locked & ~s.sel.pinned) for s in solved] if uv_selection_locks else []
-    extra = [(s, mask) for s, mask in extra if mask.any()]
-    restore = []
-    if extra:
-        with _object_mode(context):
-            for s, mask in extra:
-                name = mesh_io.uv_layer_name(s.obj.data)
-                restore.append((s.obj.data, name, mesh_io.set_pins(s.obj.data, name, s.sel.pinned | mask)))
+    extra = []
+    for s in solved if uv_selection_locks else []:
+        loops = s.sel.tri_loops.ravel()
+        mask = np.zeros(len(s.sel.locked), dtype=bool)
+        mask[loops] = s.sel.locked[loops] & ~s.sel.pinned[loops]
+        if mask.any():
+            extra.append((s, mask))
     tool = context.scene.tool_settings
     sync_was = tool.use_uv_select_sync
-    if not sync_was and not uv_selection_locks:  # (setting it at all resyncs the UV selection)
-        tool.use_uv_select_sync = True
-    # the pack's poll wants an active object with a UV map: the active object may have had
-    # no face selected and no UV map (then the pack would raise, the UVs written)
-    ob = solved[0].obj
+    restore = []
     try:
+        if extra:
+            with _object_mode(context):
+                for s, mask in extra:
+                    me = s.obj.data
+                    name = mesh_io.uv_layer_name(me)
+                    restore.append((me, name, mesh_io.uv_selection(me, name), mesh_io.pins(me, name)))
+                    mesh_io.set_pins(me, name, s.sel.pinned | mask)
+        if not sync_was:  # (setting it at all resyncs the UV selection)
+            tool.use_uv_select_sync = True
+        # the pack's poll wants an active object with a UV map: the active object may have
+        # had no face selected and no UV map (then the pack would raise, the UVs written)
+        ob = solved[0].obj
         with context.temp_override(active_object=ob, object=ob, edit_object=ob):
             bpy.ops.uv.pack_islands(
                 margin=opts.margin,
                 rotate=True,
                 scale=not opts.world_scale,
-                pin=held,
+                pin=held or bool(extra),
                 pin_method="LOCKED",
                 shape_method=opts.pack_shape,
             )
@@ -223,8 +231,9 @@ def _pack(context, solved, opts: Options, held: bool, uv_selection_locks: bool) 
             tool.use_uv_select_sync = sync_was
         if restore:
             with _object_mode(context):
-                for me, name, was in restore:
-                    mesh_io.set_pins(me, name, was)
+                for me, name, selection, pins in restore:
+                    mesh_io.set_pins(me, name, pins)
+                    mesh_io.set_uv_selection(me, selection)
 
 
 _OVERLAP = ("duplicate_face", "non_manifold_edge")  # what overlapping triangles raise

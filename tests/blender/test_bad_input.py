@@ -5,7 +5,7 @@ import pytest
 
 from isoparam_addon.blender import mesh_io
 from isoparam_addon.blender import unwrap as unwrap_module
-from isoparam_addon.solver import InvalidMeshError, metrics
+from isoparam_addon.solver import InvalidMeshError
 from isoparam_addon.solver import examples as ex
 
 from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, snapshot
@@ -144,7 +144,7 @@ def test_quads_whose_diagonal_clashes_are_split_along_the_other(scene, case):
     elif case == "two quads on three vertices":
         V, F = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (1.2, 1.3, 0.5)], [(0, 1, 2, 3), (0, 1, 2, 4)]
     else:
-        V = [(x, y, 0) for y in range(4) for x in range(4)]
+        V = [(x, y, 0.1 * x * x - 0.2 * y * y) for y in range(4) for x in range(4)]  # curved
         F = [(4 * j + i, 4 * j + i + 1, 4 * j + i + 5, 4 * j + i + 4) for j in range(3) for i in range(3)]
         E, seams = [(0, 5), (5, 10)], {(0, 5), (5, 10)}
     me = bpy.data.meshes.new("m")
@@ -158,16 +158,10 @@ def test_quads_whose_diagonal_clashes_are_split_along_the_other(scene, case):
     object_mode()
     uv = corner_uvs(ob)
     assert np.isfinite(uv).all() and np.ptp(uv, axis=0).min() > 0.1
-    if case == "loose seams on quads' diagonals":  # the flat grid stays one undistorted island
-        assert metrics.edge_rms(np.array(V, float), *_triangles_and_uvs(ob)) < 1e-5
-
-
-def _triangles_and_uvs(ob):
-    me = ob.data
-    me.calc_loop_triangles()
-    loops = np.array([t.loops[:] for t in me.loop_triangles])  # a small test mesh
-    verts = np.array([t.vertices[:] for t in me.loop_triangles])
-    return verts, corner_uvs(ob)[loops].astype(np.float64)
+    if case == "loose seams on quads' diagonals":  # ignored, as by Blender: one island, uncut
+        cv = np.empty(len(me.loops), dtype=np.int32)
+        me.attributes[".corner_vert"].data.foreach_get("value", cv)
+        assert len(np.unique(np.column_stack([cv, uv.view(np.int32)]), axis=0)) == len(V)
 
 
 def test_overlapping_faces_are_named_in_the_message():

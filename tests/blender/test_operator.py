@@ -367,6 +367,11 @@ def test_uv_editor_without_sync_select_keeps_unselected_uvs_and_the_selection(sc
         after = corner_uvs(ob)
         assert np.array_equal(after[~picked], before[~picked])
         assert not np.allclose(after[picked], before[picked])
+        # one island, still in one piece: every vertex has one UV (the packer, acting on the
+        # faces whose UVs are all selected, moved only those: the island tore at the edge)
+        cv = corner_verts(ob)
+        keys = np.unique(np.column_stack([cv, after.view(np.int32)]), axis=0)
+        assert len(keys) == len(V)
         assert {k: v for k, v in snapshot(ob).items() if k in state or k.startswith(".pn.")} == state
     finally:
         settings.use_uv_select_sync = True
