@@ -240,9 +240,11 @@ _OVERLAP = ("duplicate_face", "non_manifold_edge")  # what overlapping triangles
 
 
 def _solve(sel: mesh_io.Selection, opts: Options):
+    """The solver's result for one selection, and its triangle corners' locks (t, 3) and old
+    UVs (t, 3, 2)."""
     locked = sel.locked[sel.tri_loops]
     old = np.take(sel.uv, sel.tri_loops, axis=0).astype(np.float64)
-    return parametrize(
+    res = parametrize(
         sel.V,
         sel.F,
         sel.seams,
@@ -253,6 +255,7 @@ def _solve(sel: mesh_io.Selection, opts: Options):
         inner_edges=sel.diagonals,
         extra_cuts=opts.extra_cuts,
     )
+    return res, locked, old
 
 
 def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
@@ -270,7 +273,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
     for k, (ob, sel) in enumerate(selections):
         try:
             try:
-                res = _solve(sel, opts)
+                res, locked, old = _solve(sel, opts)
             except InvalidMeshError as err:
                 # quads split along a diagonal that another face uses too (a triangle on it,
                 # or two quads on three vertices) overlap: try their other diagonal
@@ -278,7 +281,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
                 if other is None:
                     raise
                 sel = other
-                res = _solve(sel, opts)
+                res, locked, old = _solve(sel, opts)
         except InvalidMeshError as err:
             op.report({"ERROR"}, "Isometric Unwrap: " + _describe(err, sel) + ". Nothing was changed")
             return None
@@ -291,8 +294,6 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             return None
         wm.progress_update(len(objects) + k)
         aspect = _aspect(ob, sel) if opts.correct_aspect else None
-        locked = sel.locked[sel.tri_loops]
-        old = np.take(sel.uv, sel.tri_loops, axis=0).astype(np.float64)
         uv, held = layout.place(
             res.corner_uv,
             res.face_island,

@@ -68,6 +68,15 @@ def object_mode():
         bpy.ops.object.mode_set(mode="OBJECT")
 
 
+def set_uvs_and_pins(ob, uv, pins):
+    """Write the active map's corner UVs (corners, 2) and pins (corners,) bool, object mode."""
+    layer = ob.data.uv_layers.active
+    layer.uv.foreach_set("vector", np.asarray(uv, dtype=np.float32).ravel())
+    if hasattr(layer, "pin_ensure"):  # 5.0 creates pins lazily; 4.2 always has them
+        layer.pin_ensure()
+    layer.pin.foreach_set("value", np.asarray(pins, dtype=bool))
+
+
 def corner_uvs(ob):
     """(corners, 2) float32 UVs of the active map."""
     me = ob.data

@@ -8,7 +8,7 @@ from isoparam_addon.blender import unwrap as unwrap_module
 from isoparam_addon.solver import InvalidMeshError
 from isoparam_addon.solver import examples as ex
 
-from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, snapshot
+from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, set_uvs_and_pins, snapshot
 
 
 def run_and_capture(ob):
@@ -64,13 +64,9 @@ def test_bad_meshes_are_reported_and_left_untouched(scene, case, expect):
         start = me.polygons[5].loop_start
         pins = np.zeros(len(me.loops), dtype=bool)
         pins[start] = True
-        layer = me.uv_layers.active
-        if hasattr(layer, "pin_ensure"):  # 5.0 creates pins lazily; 4.2 always has them
-            layer.pin_ensure()
-        layer.pin.foreach_set("value", pins)
         uv = corner_uvs(ob)
         uv[start] = np.nan
-        me.uv_layers.active.uv.foreach_set("vector", uv.ravel())
+        set_uvs_and_pins(ob, uv, pins)
     before = snapshot(ob)
     result, message = run_and_capture(ob)
     assert result == {"CANCELLED"}
@@ -98,15 +94,11 @@ def test_far_pins_are_kept_and_the_pack_is_skipped(scene, capfd):
     V, F = ex.peaks(9)
     ob = prepared(V, F)
     me = ob.data
-    layer = me.uv_layers.active
-    if hasattr(layer, "pin_ensure"):
-        layer.pin_ensure()
     pins = np.zeros(len(me.loops), dtype=bool)
     pins[me.polygons[0].loop_start] = True
-    layer.pin.foreach_set("value", pins)
     uv = corner_uvs(ob)
     uv[pins] = 1e8
-    me.uv_layers.active.uv.foreach_set("vector", uv.ravel())
+    set_uvs_and_pins(ob, uv, pins)
     edit(ob)
     capfd.readouterr()
     assert bpy.ops.uv.isometric_unwrap(pack_shape="CONVEX") == {"FINISHED"}

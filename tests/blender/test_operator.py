@@ -7,7 +7,18 @@ import pytest
 from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import metrics, parametrize
 
-from .conftest import add_mesh, bpy, corner_uvs, corner_verts, edit, object_mode, positions, snapshot, triangles
+from .conftest import (
+    add_mesh,
+    bpy,
+    corner_uvs,
+    corner_verts,
+    edit,
+    object_mode,
+    positions,
+    set_uvs_and_pins,
+    snapshot,
+    triangles,
+)
 
 
 def unwrap(**kw):
@@ -213,7 +224,6 @@ def test_pinned_uvs_hold(scene):
     edit(ob)
     unwrap()
     object_mode()
-    me = ob.data
     uv = corner_uvs(ob).copy()
     cv = corner_verts(ob)
     # move two corner vertices' UVs somewhere and pin them
@@ -221,12 +231,7 @@ def test_pinned_uvs_hold(scene):
     target = {0: (0.1, 0.2), 20: (0.7, 0.3)}
     for v in pinned_verts:
         uv[cv == v] = target[v]
-    me.uv_layers.active.uv.foreach_set("vector", uv.ravel())
-    layer = me.uv_layers.active
-    if hasattr(layer, "pin_ensure"):  # 5.0 creates pins lazily; 4.2 always has them
-        layer.pin_ensure()
-    pins = np.isin(cv, pinned_verts)
-    layer.pin.foreach_set("value", pins)
+    set_uvs_and_pins(ob, uv, np.isin(cv, pinned_verts))
     edit(ob)
     assert unwrap() == {"FINISHED"}
     object_mode()
@@ -246,16 +251,11 @@ def test_a_vertex_pinned_to_different_uvs_keeps_every_pin_and_is_reported_so(sce
     edit(ob)
     unwrap()
     object_mode()
-    me = ob.data
     uv = corner_uvs(ob).copy()
     cv = corner_verts(ob)
     uv[np.flatnonzero(cv == 60)[0]] += (0.05, 0.0)  # one corner of an interior vertex moved
-    me.uv_layers.active.uv.foreach_set("vector", uv.ravel())
-    layer = me.uv_layers.active
-    if hasattr(layer, "pin_ensure"):
-        layer.pin_ensure()
     pins = np.isin(cv, [0, 10, 60, 120])
-    layer.pin.foreach_set("value", pins)
+    set_uvs_and_pins(ob, uv, pins)
     edit(ob)
     capfd.readouterr()
     assert unwrap() == {"FINISHED"}
@@ -282,17 +282,12 @@ def test_one_pin_keeps_the_islands_old_turn(scene):
     edit(ob)
     unwrap()
     object_mode()
-    me = ob.data
     uv = corner_uvs(ob).copy()
     cv = corner_verts(ob)
     mine = cv < len(V)  # the first island's corners
     centre = uv[mine].mean(axis=0)
     uv[mine] = centre + (uv[mine] - centre) @ np.array([[0.0, 1.0], [-1.0, 0.0]])  # a quarter turn
-    me.uv_layers.active.uv.foreach_set("vector", uv.ravel())
-    layer = me.uv_layers.active
-    if hasattr(layer, "pin_ensure"):
-        layer.pin_ensure()
-    layer.pin.foreach_set("value", cv == 40)  # the centre vertex of the first island
+    set_uvs_and_pins(ob, uv, cv == 40)  # pinned: the centre vertex of the first island
     edit(ob)
     assert unwrap() == {"FINISHED"}
     object_mode()
