@@ -126,8 +126,11 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
     else:
         pos = _attribute(me, ["position"], 3, np.float32, nv).astype(np.float64)
     if world_space:
+        # the linear part only: an unwrap does not depend on where the object is, and
+        # adding its location costs the digits of a small object far from the origin
+        # (fuzzing: scale 1e-20 at (-2.5, 3.7, 0.1) collapsed every vertex onto one point)
         M = np.array(obj.matrix_world, dtype=np.float64)
-        pos = pos @ M[:3, :3].T + M[:3, 3]
+        pos = pos @ M[:3, :3].T
     corner_vert = _attribute(me, [".corner_vert"], 1, np.int32, nl)
     edge_verts = _attribute(me, [".edge_verts"], 2, np.int32, ne)
     select = _attribute(me, [".select_poly"], 1, bool, nf)

@@ -527,6 +527,21 @@ def test_true_world_scale_follows_the_object_transform(scene):
     np.testing.assert_allclose(l2, l3, rtol=1e-5)
 
 
+def test_true_world_scale_keeps_the_digits_of_a_small_object_far_from_the_origin(scene):
+    # found by fuzzing: world positions included the object's location, so a mesh scaled
+    # by 1e-12 at (3, 4, 0) kept only ~4 of its digits (at 1e-20 it became a single point
+    # and the unwrap gave non-finite UVs); the location does not change an unwrap
+    V, F, _ = ex.s_surface(30, 8)
+    ob = add_mesh("S", V, F)
+    ob.scale = (1e-12, 1e-12, 1e-12)
+    ob.location = (3.0, 4.0, 0.0)
+    edit(ob)
+    assert unwrap(world_scale=True, pack=False) == {"FINISHED"}
+    object_mode()
+    Vb, Fb, cuv = triangle_uvs(ob)
+    assert metrics.edge_rms(1e-12 * Vb, Fb, cuv) < 1e-5
+
+
 def image_material(name, width, height):
     mat = bpy.data.materials.new(name)
     if bpy.app.version < (5, 0, 0):  # pragma: no cover - always on in 5.0
