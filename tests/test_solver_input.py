@@ -188,6 +188,31 @@ def test_islands_collapsed_to_a_point_or_a_line_give_finite_uvs_and_leave_other_
     np.testing.assert_allclose(r.uv[:n], alone.uv, atol=1e-9)
 
 
+def test_pinned_islands_collapsed_to_a_point_give_finite_uvs():
+    # found by fuzzing the operator (six faces of it): every vertex on one point, pins
+    # apart; the refinement started from an infinite energy and inf - inf made NaN UVs
+    V = np.tile([-2.5353877544403076, 3.7179245948791504, 0.12965722382068634], (13, 1))
+    F = np.array([[2, 0, 5], [6, 8, 3], [6, 3, 4], [11, 1, 12], [7, 9, 10], [7, 10, 8]])
+    locked = np.array([[0, 0, 0], [0, 1, 1], [0, 1, 0], [0, 1, 0], [1, 1, 1], [1, 1, 0]], dtype=bool)
+    old = np.zeros((6, 3, 2))
+    old[locked] = [
+        [0.57585835, 0.6572701],
+        [0.55166495, 0.65832525],
+        [0.55166495, 0.65832525],
+        [0.7114335, 0.16781734],
+        [0.60143036, 0.65705377],
+        [0.5864351, 0.74666667],
+        [0.5635054, 0.7434769],
+        [0.60143036, 0.65705377],
+        [0.5635054, 0.7434769],
+    ]
+    seams = [[2, 0], [0, 5], [3, 8]]
+    r = parametrize(V, F, seams, split_bowties=True, refine=100, pins=(locked, old))
+    assert np.isfinite(r.uv).all() and np.isfinite(r.corner_uv).all()
+    assert np.isfinite(r.stats["refine_energy"]).all()
+    np.testing.assert_array_equal(r.corner_uv[locked], old[locked])
+
+
 def test_a_face_collapsed_to_a_point_does_not_stop_the_refinement():
     # its gradient was 0/0: the island's energy NaN, no descent step ever accepted
     V, F = ex.peaks(21)

@@ -427,9 +427,15 @@ def refine(
         x, stuck = _reseed(X, faces, out.uv, he_twin, islands, frames, each, pinned, out, order)
     else:
         x, stuck = out.uv, np.zeros(islands.n, dtype=bool)
-    # islands that still fold, and islands with nothing free, are left as they are
+    # islands that still fold, islands with nothing free, and islands whose energy is not
+    # finite (a face with det J so small that its square underflows: fuzzing found one
+    # with every vertex on one point and pins apart, and inf - inf made its UVs NaN)
+    # are left as they are
     free_count = np.bincount(islands.label, ~pinned, minlength=islands.n)
-    active = ~stuck & (free_count > 0)
+    J = frames.jacobians(x)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        endless = each.face_sum(~np.isfinite(_energy_terms(*J, area)[0])) > 0
+    active = ~stuck & ~endless & (free_count > 0)
     live_face = active[each.face]
     live_area = float(area[live_face].sum())
     every_face_live = bool(live_face.all())
@@ -460,7 +466,6 @@ def refine(
         y = solve_columns(lu, np.take(g, perm, axis=0))
         return np.take(np.vstack([y, np.zeros((1, y.shape[1]))]), slot, axis=0)
 
-    J = frames.jacobians(x)
     E, G = energies(J)
     out.energy.append(float(E.sum()) / max(live_area, 1e-300))
     # ARAP first (Liu et al. 2008): large, cheap moves with the same factorization
