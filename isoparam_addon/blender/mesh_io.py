@@ -65,7 +65,8 @@ class Selection:
     name : str
         The object's name (for reports).
     V : (n, 3) float64
-        Positions of the vertices used by the selected faces (object or world space).
+        Positions of the vertices used by the selected faces (object space, or world space
+        without the location).
     F : (t, 3) int64
         Triangles of the selected faces over ``V``.
     tri_loops : (t, 3) int64

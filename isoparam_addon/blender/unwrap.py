@@ -64,7 +64,28 @@ def _describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
                 "share three vertices, so one lies across the other)"
             )
             hint = "Delete or dissolve one of the two faces, or move a vertex off the other's diagonal"
+    if err.kind == "non_manifold_edge" and err.edges is not None and len(err.edges):
+        overlap = _faces_across(sel, err.edges[0])
+        if overlap is not None:  # not an edge of the mesh: Select Non Manifold would show nothing
+            a, b = overlap
+            text += f": a diagonal of face {a}, which face {b} lies across"
+            hint = "Delete or dissolve one of the two faces, or move a vertex off the diagonal"
     return f"'{sel.name}': {text}" + (f". {hint}" if hint else "")
+
+
+def _faces_across(sel: mesh_io.Selection, edge) -> tuple[int, int] | None:
+    """For a vertex pair ``edge`` of the selection that is a diagonal inside one mesh face
+    (a quad or n-gon split there) and a side of another: those two faces."""
+    a, b = sorted(int(v) for v in edge)
+    if not len(sel.diagonals) or not (np.sort(sel.diagonals, axis=1) == (a, b)).all(axis=1).any():
+        return None
+    on = (sel.F == a).any(axis=1) & (sel.F == b).any(axis=1)
+    polys, count = np.unique(sel.tri_poly[on], return_counts=True)
+    inside = polys[count == 2]  # both triangles of the split face hold the diagonal
+    others = polys[count == 1]
+    if not inside.size or not others.size:
+        return None
+    return int(inside[0]), int(others[0])
 
 
 def _overlapping_faces(sel: mesh_io.Selection, t: int) -> tuple[int, int] | None:

@@ -156,6 +156,28 @@ def test_quads_whose_diagonal_clashes_are_split_along_the_other(scene, case):
         assert len(np.unique(np.column_stack([cv, uv.view(np.int32)]), axis=0)) == len(V)
 
 
+def test_a_concave_quad_is_not_split_along_its_outside_diagonal(scene):
+    # Blender splits a concave quad along its inside diagonal; a triangle on that diagonal
+    # clashes, and the other diagonal runs outside the quad: its triangles would overlap
+    # in 3D and fold the layout. The unwrap refuses, names the two faces, changes nothing.
+    V = [(0, 0, 0), (1, 0, 0), (0.3, 0.3, 0), (0, 1, 0), (0.1, 0.1, 1)]
+    me = bpy.data.meshes.new("concave")
+    me.from_pydata(V, [], [(0, 1, 2, 3), (0, 2, 4)])
+    me.update()
+    ob = bpy.data.objects.new("concave", me)
+    bpy.context.scene.collection.objects.link(ob)
+    edit(ob)
+    bpy.ops.uv.unwrap(method="CONFORMAL")
+    object_mode()
+    before = snapshot(ob)
+    result, message = run_and_capture(ob)
+    assert result == {"CANCELLED"}
+    assert "a diagonal of face 0, which face 1 lies across" in message
+    assert "Delete or dissolve one of the two faces" in message and "Nothing was changed" in message
+    assert "Non Manifold" not in message  # Blender's mesh has no such edge: it would show nothing
+    assert snapshot(ob) == before
+
+
 def test_overlapping_faces_are_named_in_the_message():
     # two faces whose triangulations share a triangle (n-gons the other diagonal cannot fix)
     sel = mesh_io.Selection(
