@@ -60,7 +60,7 @@ def test_bad_pins():
     mask[1, 2] = mask[0, 1] = True
     uv[1, 2] = np.nan
     uv[0, 0] = np.inf  # not pinned: ignored
-    message = r"1 face have pinned corners with non-finite UVs \(first: face 1\)"
+    message = r"1 face has pinned corners with non-finite UVs \(first: face 1\)"
     err = raises("non_finite_pin", V, F, message, pins=(mask, uv))
     assert err.indices.tolist() == [1]
 
@@ -76,7 +76,7 @@ def test_non_finite_coordinates_name_count_and_first():
 def test_index_out_of_range():
     V, F = square()
     F[1, 2] = 7
-    err = raises("index_range", V, F, r"1 face index a vertex outside 0..3 \(first: face 1\)")
+    err = raises("index_range", V, F, r"1 face indexes a vertex outside 0..3 \(first: face 1\)")
     assert err.indices.tolist() == [1]
     F[1, 2] = -1
     raises("index_range", V, F, "first: face 1")
@@ -85,35 +85,35 @@ def test_index_out_of_range():
 def test_repeated_vertex_in_a_face():
     V, F = square()
     F[0] = [0, 1, 1]
-    raises("repeated_vertex", V, F, r"1 face use the same vertex twice \(first: face 0\)")
+    raises("repeated_vertex", V, F, r"1 face uses the same vertex twice \(first: face 0\)")
 
 
 def test_duplicate_face():
     V, F = square()
     F = np.vstack([F, [2, 0, 1]])
-    raises("duplicate_face", V, F, r"1 face repeat the vertices of an earlier face \(first: face 2\)")
+    raises("duplicate_face", V, F, r"1 face repeats the vertices of an earlier face \(first: face 2\)")
 
 
 def test_edge_shared_by_three_faces():
     V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]], dtype=float)
     F = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
-    err = raises("non_manifold_edge", V, F, r"1 edge are shared by more than two faces \(first: edge \(0, 1\)\)")
+    err = raises("non_manifold_edge", V, F, r"1 edge is shared by more than two faces \(first: edge \(0, 1\)\)")
     assert err.edges.tolist() == [[0, 1]]
 
 
 def test_bow_tie_vertex():
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]], dtype=float)
     F = np.array([[0, 1, 2], [0, 3, 4]])
-    err = raises("non_manifold_vertex", V, F, r"1 vertex join faces that share no edge .*\(first: vertex 0\)")
+    err = raises("non_manifold_vertex", V, F, r"1 vertex joins faces that share no edge .*\(first: vertex 0\)")
     assert err.indices.tolist() == [0]
 
 
 def test_bad_seams():
     V, F = square()
     raises("seam", V, F, "seams must be an", seams=np.array([0.5, 1.5]))
-    raises("seam", V, F, r"1 seam index a vertex outside", seams=np.array([[0, 9]]))
+    raises("seam", V, F, r"1 seam indexes a vertex outside", seams=np.array([[0, 9]]))
     raises("seam", V, F, "inner_edges must be an", inner_edges=np.array([0.5, 1.5]))
-    raises("seam", V, F, r"1 inner_edge index a vertex outside", inner_edges=np.array([[0, 9]]))
+    raises("seam", V, F, r"1 inner_edge indexes a vertex outside", inner_edges=np.array([[0, 9]]))
 
 
 def test_seam_pairs_that_are_not_edges_are_ignored():

@@ -54,14 +54,25 @@ class SolverError(IsoparamError, RuntimeError):
 def offenders(kind: str, what: str, element: str, indices, edges=None) -> InvalidMeshError:
     """Build an :class:`InvalidMeshError` whose message quotes the count and first index.
 
-    ``what`` completes the sentence "<count> <element>s <what>", e.g.
-    ``offenders("non_finite", "have non-finite coordinates", "vertex", idx)``.
+    ``what`` completes the sentence "<count> <element>s <what>", its verb in the plural,
+    e.g. ``offenders("non_finite", "have non-finite coordinates", "vertex", idx)``; for
+    one offender both agree ("1 vertex has non-finite coordinates").
     """
     indices = np.asarray(indices, dtype=np.int64).ravel()
     count = indices.size
     plural = element if count == 1 else {"vertex": "vertices"}.get(element, element + "s")
+    if count == 1:
+        what = _singular_verb(what)
     first = f"{element} {indices[0]}" if count else ""
     if edges is not None and count:
         a, b = np.asarray(edges)[0]
         first = f"edge ({a}, {b})"
     return InvalidMeshError(kind, f"{count} {plural} {what} (first: {first})", element, indices, edges)
+
+
+def _singular_verb(what: str) -> str:
+    """The phrase with its first word, a plural verb, in the singular: have -> has,
+    are -> is, index -> indexes, repeat -> repeats."""
+    verb, _, rest = what.partition(" ")
+    verb = {"have": "has", "are": "is"}.get(verb) or verb + ("es" if verb.endswith(("s", "x", "sh", "ch")) else "s")
+    return f"{verb} {rest}" if rest else verb

@@ -37,7 +37,7 @@ def prepared(V, F):
     [
         ("non_finite", "non-finite coordinates"),
         ("three_faces_on_an_edge", "shared by more than two faces"),
-        ("duplicate_face", "repeat the vertices of an earlier face"),
+        ("duplicate_face", "repeats the vertices of an earlier face"),
         ("non_finite_pin", "pinned corners with non-finite UVs (first: face 5). Clear the pins"),
     ],
 )
@@ -196,7 +196,7 @@ def test_overlapping_faces_are_named_in_the_message():
         uv_name="UVMap",
     )
     err = InvalidMeshError(
-        "duplicate_face", "1 face repeat the vertices of an earlier face (first: face 3)", "face", [3]
+        "duplicate_face", "1 face repeats the vertices of an earlier face (first: face 3)", "face", [3]
     )
     text = unwrap_module._describe(err, sel)
     assert "faces 0 and 1 share three vertices" in text and "Delete or dissolve one of the two faces" in text
@@ -212,7 +212,7 @@ def test_the_message_names_mesh_elements(scene):
     me.attributes["position"].data.foreach_set("vector", pos)
     me.update()
     _, message = run_and_capture(ob)
-    assert "'bad': 1 vertex have non-finite coordinates (first: vertex 40)" in message
+    assert "'bad': 1 vertex has non-finite coordinates (first: vertex 40)" in message
 
 
 def test_empty_selection_is_an_error(scene):
