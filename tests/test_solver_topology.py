@@ -289,3 +289,6 @@ def test_flipped_faces_are_those_of_the_layout_returned():
             a = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
             reversed_ = build_topology(Vi, Fi, split_bowties=True)[2].flipped
             np.testing.assert_array_equal(r.flipped, np.where(reversed_, -a, a) <= 0)
+            # and the metrics count the same faces: they used the input winding, so an
+            # island's faces given the other way round counted as folded
+            assert r.distortion()["flipped"] == r.flipped.sum()

@@ -89,12 +89,20 @@ class Parametrization:
     timings: dict = field(default_factory=dict)
     stats: dict = field(default_factory=dict)
     _mesh: tuple = field(default=None, repr=False)
+    _turned: np.ndarray = field(default=None, repr=False)  # (m,) faces the solver turned round
     _facts: dict = field(default=None, repr=False)
 
     def distortion(self) -> dict:
-        """All measures of :mod:`isoparam_addon.solver.metrics` for this layout."""
+        """All measures of :mod:`isoparam_addon.solver.metrics` for this layout.
+
+        Faces the solver turned round to orient their island consistently are measured
+        turned round too, so ``flipped`` counts what :attr:`flipped` flags.
+        """
         V, F = self._mesh
-        return metrics.distortion(V, F, self.corner_uv, self.face_island)
+        turned = self._turned[:, None]
+        F = np.where(turned, F[:, ::-1], F)
+        cuv = np.where(turned[:, :, None], self.corner_uv[:, ::-1], self.corner_uv)
+        return metrics.distortion(V, F, cuv, self.face_island)
 
 
 def _opened(topo: Topology) -> list[str]:
@@ -517,6 +525,7 @@ def _merge(first: Parametrization, kept: list, seams: np.ndarray, options: dict)
         timings=timings,
         stats=_stats(facts, steps),
         _mesh=(V, F),
+        _turned=topo.flipped,
         _facts=facts,
     )
 
@@ -700,6 +709,7 @@ def _parametrize(vertices, faces, seams, *, pack, margin, tol, max_iter, split_b
         timings=t,
         stats=_stats(facts, steps),
         _mesh=(V, F),
+        _turned=topo.flipped,
         _facts=facts,
     )
 
