@@ -190,50 +190,74 @@ def run(op, context, opts: Options) -> set:
                 _write(s)
                 if opts.show_stretch:
                     _write_stretch(s.obj.data, s.sel, s.distortion)
+            held = any(s.held.any() for s in solved)
+            far = any(np.abs(s.corner_uv).max() > layout.FAR for s in solved)
+            # a single island was fitted into the unit square by layout.place already
+            # (Blender's pack would spend 0.17 s on it at 100k vertices)
+            pack = opts.pack and not far and (sum(s.n_islands for s in solved) > 1 or held)
+            # what the pack changes besides the UVs, kept while the mesh arrays are at hand
+            kept = _prepare_pack(solved, uv_editor and not sync, not sync and _SYNC_RESELECTS) if pack else []
             wm.progress_update(2 * len(objects) + 1)
     finally:
         wm.progress_end()
-    held = any(s.held.any() for s in solved)
-    far = any(np.abs(s.corner_uv).max() > layout.FAR for s in solved)
     if far and opts.pack:  # Blender's packer makes NaN of such UVs, or crashes
         op.report({"WARNING"}, f"Isometric Unwrap: not packed: UVs beyond {layout.FAR:.0e} (far pins, or world scale)")
-    if opts.pack and not far and (sum(s.n_islands for s in solved) > 1 or held):
-        # a single island was fitted into the unit square by layout.place already
-        # (Blender's pack would spend 0.17 s on it at 100k vertices)
-        _pack(context, solved, opts, held, uv_editor and not sync)
+    if pack:
+        _pack(context, solved, opts, held or any(k.pins_set for k in kept), kept)
     _report(op, solved, time.perf_counter() - t0)
     return {"FINISHED"}
 
 
-def _pack(context, solved, opts: Options, held: bool, uv_selection_locks: bool) -> None:
-    """``uv.pack_islands`` over what was unwrapped, islands with locked corners left where they are.
+# Switching sync selection rewrites the UV selection from the mesh selection in 5.0
+# (measured on 5.0.1; 4.2.23 and 4.5.15 keep it), so the pack's switch is undone there.
+_SYNC_RESELECTS = bpy.app.version >= (5, 0, 0)
+
+
+@dataclass
+class _Kept:
+    """What :func:`_pack` puts back on one mesh: its UV selection, and its pins where
+    corners locked by the UV selection were pinned for the pack."""
+
+    mesh: object
+    uv_name: str
+    uv_selection: dict
+    pins: np.ndarray | None
+    pins_set: bool
+
+
+def _prepare_pack(solved, uv_selection_locks: bool, reselects: bool) -> list[_Kept]:
+    """Before the pack (object mode): pin the corners locked by the UV selection (UV
+    editor, sync off; the packer keeps only pinned islands in place), and keep the UV
+    selection and pins of the meshes whose UV selection the pack's sync switch would
+    rewrite (``reselects``) or whose pins change."""
+    kept = []
+    for s in solved:
+        mask = np.zeros(len(s.sel.locked), dtype=bool)
+        if uv_selection_locks:
+            loops = s.sel.tri_loops.ravel()
+            mask[loops] = s.sel.locked[loops] & ~s.sel.pinned[loops]
+        if not (mask.any() or reselects):
+            continue
+        me = s.obj.data
+        name = mesh_io.uv_layer_name(me)
+        kept.append(_Kept(me, name, mesh_io.uv_selection(me, name), mesh_io.pins(me, name), bool(mask.any())))
+        if mask.any():
+            mesh_io.set_pins(me, name, s.sel.pinned | mask)
+    return kept
+
+
+def _pack(context, solved, opts: Options, pin: bool, kept: list[_Kept]) -> None:
+    """``uv.pack_islands`` over what was unwrapped, pinned islands left where they are;
+    then what :func:`_prepare_pack` kept is put back (object mode, only if there is any).
 
     The pack runs with sync selection on, so that it acts on whole selected faces whatever
     their UVs' own selection (off by default in 4.2; with it off, Blender's packer takes
-    only faces whose UVs are all selected and would tear an island in two). It keeps only
-    pinned islands in place, so corners locked by the UV selection (UV editor, sync off)
-    are pinned for it; switching sync selection rewrites the UV selection (5.0), so there
-    the UV selection and the pins are put back after it (object mode, only then).
+    only faces whose UVs are all selected and would tear an island in two).
     """
-    extra = []
-    for s in solved if uv_selection_locks else []:
-        loops = s.sel.tri_loops.ravel()
-        mask = np.zeros(len(s.sel.locked), dtype=bool)
-        mask[loops] = s.sel.locked[loops] & ~s.sel.pinned[loops]
-        if mask.any():
-            extra.append((s, mask))
     tool = context.scene.tool_settings
     sync_was = tool.use_uv_select_sync
-    restore = []
     try:
-        if extra:
-            with _object_mode(context):
-                for s, mask in extra:
-                    me = s.obj.data
-                    name = mesh_io.uv_layer_name(me)
-                    restore.append((me, name, mesh_io.uv_selection(me, name), mesh_io.pins(me, name)))
-                    mesh_io.set_pins(me, name, s.sel.pinned | mask)
-        if not sync_was:  # (setting it at all resyncs the UV selection)
+        if not sync_was:  # (setting it at all resyncs the UV selection in 5.0)
             tool.use_uv_select_sync = True
         # the pack's poll wants an active object with a UV map: the active object may have
         # had no face selected and no UV map (then the pack would raise, the UVs written)
@@ -243,18 +267,19 @@ def _pack(context, solved, opts: Options, held: bool, uv_selection_locks: bool) 
                 margin=opts.margin,
                 rotate=True,
                 scale=not opts.world_scale,
-                pin=held or bool(extra),
+                pin=pin,
                 pin_method="LOCKED",
                 shape_method=opts.pack_shape,
             )
     finally:
         if tool.use_uv_select_sync != sync_was:
             tool.use_uv_select_sync = sync_was
-        if restore:
+        if kept:
             with _object_mode(context):
-                for me, name, selection, pins in restore:
-                    mesh_io.set_pins(me, name, pins)
-                    mesh_io.set_uv_selection(me, selection)
+                for k in kept:
+                    if k.pins_set:
+                        mesh_io.set_pins(k.mesh, k.uv_name, k.pins)
+                    mesh_io.set_uv_selection(k.mesh, k.uv_selection)
 
 
 _OVERLAP = ("duplicate_face", "non_manifold_edge")  # what overlapping triangles raise

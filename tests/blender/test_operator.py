@@ -372,6 +372,33 @@ def test_uv_editor_without_sync_select_keeps_unselected_uvs_and_the_selection(sc
         settings.use_uv_select_sync = True
 
 
+def test_the_3d_viewport_without_sync_select_keeps_the_uv_selection(scene):
+    # the pack runs with sync select on; switching it on and off rewrote the UV selection
+    # from the mesh selection (5.0), where Blender's own unwrap leaves it as it was
+    V, F = ex.peaks(9)
+    ob = add_mesh("seamed", V, F)
+    mark_seams(ob, [(i, i + 1) for i in range(36, 44)])  # two islands: the pack runs
+    picked = V[corner_verts(ob), 0] > 0.1
+    edit(ob)
+    bpy.ops.uv.unwrap()
+    object_mode()
+    settings = bpy.context.scene.tool_settings
+    settings.use_uv_select_sync = False  # in object mode: set in edit mode, it selects every UV
+    try:
+        edit(ob, select_all=False)
+        select_uvs(ob, picked)
+        object_mode()
+        state = {k: v for k, v in snapshot(ob).items() if "select" in k or k.startswith((".vs.", ".es.", ".pn."))}
+        before = corner_uvs(ob).copy()
+        edit(ob, select_all=False)
+        assert unwrap() == {"FINISHED"}
+        object_mode()
+        assert not np.allclose(corner_uvs(ob), before)  # unwrapped and packed, every face
+        assert {k: v for k, v in snapshot(ob).items() if k in state or k.startswith(".pn.")} == state
+    finally:
+        settings.use_uv_select_sync = True
+
+
 def test_the_pack_runs_when_the_active_object_has_no_uv_map(scene):
     # found by fuzzing: the active object in edit mode had no face selected and no UV map,
     # so uv.pack_islands' poll failed and the operator raised with the other's UVs written
