@@ -271,6 +271,18 @@ def test_a_merged_result_is_the_whole_mesh_solved_with_the_cuts_kept(pack, refin
         assert np.allclose(r.corner_uv[disk[-1], 1], [12.0, -3.5])
 
 
+@pytest.mark.parametrize("refine", [0, 100])
+def test_a_merged_result_measures_the_faces_the_solver_turned_round(refine):
+    # inconsistent input winding: the metrics take the faces as the solver oriented them
+    # on the merged result too (review: 136 flipped by the input winding, 8 in fact)
+    V, F, D, _ = two_boxes_and_a_disk()
+    F = F.copy()
+    F[::5] = F[::5, ::-1]
+    r = parametrize(V, F, refine=refine, inner_edges=D, extra_cuts=6)
+    assert r.timings["merge"] > 0
+    assert r.distortion()["flipped"] == r.flipped.sum()
+
+
 def test_islands_shaped_by_pins_are_refined_with_the_whole_mesh_after_extra_cuts():
     # three pins shape an island, and the refinement moves every such island onto its
     # pins together (one step length, one fold test): a try alone would take another

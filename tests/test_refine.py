@@ -7,7 +7,9 @@ from hypothesis import strategies as st
 
 from isoparam_addon.solver import baselines, metrics, parametrize
 from isoparam_addon.solver import examples as ex
-from isoparam_addon.solver.refine import _max_step
+from isoparam_addon.solver.blocks import Islands
+from isoparam_addon.solver.mesh import HalfEdges
+from isoparam_addon.solver.refine import _max_step, refine
 
 from .conftest import edge_length_error, procrustes_error
 
@@ -316,7 +318,7 @@ def test_corners_of_one_vertex_pinned_to_different_uvs_are_held_at_their_mean_an
     r = parametrize(V, F, pins=(mask, uv))
     expected = [0.5 + 0.2 / mask.sum(), 0.5]
     assert np.abs(r.corner_uv[mask] - expected).max() < 1e-12
-    [w] = [w for w in r.warnings if "1 pinned vertices have corners pinned to different UVs" in w]
+    [w] = [w for w in r.warnings if "1 pinned vertex has corners pinned to different UVs" in w]
     assert w.kind == "pin_conflict" and r.stats["pin_conflicts"] == 1  # the operator words it its own way
     agreed = parametrize(V, F, pins=(mask, np.where(mask[:, :, None], [0.5, 0.5], 0.0)))
     assert not any("different UVs" in w for w in agreed.warnings) and agreed.stats["pin_conflicts"] == 0
@@ -529,3 +531,18 @@ def test_the_energy_reported_is_the_layouts_after_a_restarted_island_is_fitted_t
     assert info.island_energy[0] == pytest.approx(energy, rel=1e-9)
     assert info.energy[-1] == pytest.approx(energy / area.sum(), rel=1e-9)
     assert info.energy[-2] < 0.5 * info.energy[-1]  # the scale did change it: 4.0x -> ~9x
+
+
+def test_a_seed_whose_energy_overflows_is_repaired_by_arap():
+    # review: a face collapsed to 1e-160 has an infinite energy (det J squared underflows);
+    # ARAP repairs it, so only islands still infinite after ARAP may be left alone
+    X = np.array([[0, 0, 0], [1, 0, 0], [0.5, 0.3, 0], [0.5, 1, 0]], float)
+    F = np.array([[0, 1, 2], [1, 3, 2], [2, 3, 0]])
+    uv = X[:, :2].copy()
+    uv[2] = [0.5, 1e-160]
+    pinned = np.array([True, True, False, True])
+    he = HalfEdges(F, 4)
+    r = refine(X, F, uv, Islands(np.zeros(4, np.int64), 1), he.twin, iterations=50, pinned=pinned)
+    assert r.energy[0] == np.inf and np.isfinite(r.energy[1:]).all()
+    assert r.energy[-1] == pytest.approx(4.0, abs=1e-6)  # isometric: the triangle is planar
+    np.testing.assert_allclose(r.uv[2], [0.5, 0.3], atol=1e-5)

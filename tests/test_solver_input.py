@@ -209,7 +209,7 @@ def test_pinned_islands_collapsed_to_a_point_give_finite_uvs():
     seams = [[2, 0], [0, 5], [3, 8]]
     r = parametrize(V, F, seams, split_bowties=True, refine=100, pins=(locked, old))
     assert np.isfinite(r.uv).all() and np.isfinite(r.corner_uv).all()
-    assert np.isfinite(r.stats["refine_energy"]).all()
+    assert np.isfinite(r.stats["refine_energy"][1:]).all()  # the seed's is infinite
     np.testing.assert_array_equal(r.corner_uv[locked], old[locked])
 
 
@@ -239,7 +239,7 @@ def test_unreferenced_vertices_get_zero_and_a_warning():
     V = np.vstack([V, [[5, 5, 5]]])
     r = parametrize(V, F)
     assert r.uv[4].tolist() == [0.0, 0.0]
-    assert any("belong to no face" in w for w in r.warnings)
+    assert "1 vertex belongs to no face and was placed at (0, 0)" in r.warnings
 
 
 def test_solver_imports_without_bpy():

@@ -43,7 +43,7 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
     )
     world_scale: BoolProperty(
         name="True World Scale",
-        description="One UV unit is one world unit (object transform included): texel density "
+        description="One UV unit is one world unit (object scale and rotation included): texel density "
         "follows the size in the scene",
         default=False,
     )

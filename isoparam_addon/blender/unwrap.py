@@ -14,6 +14,7 @@ import bpy
 import numpy as np
 
 from ..solver import InvalidMeshError, parametrize
+from ..solver.errors import counted
 from . import layout, mesh_io, stretch
 
 __all__ = ["Options", "run"]
@@ -60,32 +61,52 @@ def _describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
         if overlap is not None:  # two faces, not a face given twice: Merge by Distance does not help
             a, b = overlap
             text = (
-                f"{err.count} triangle(s) of Blender's triangulation come twice (first: faces {a} and {b} "
+                f"{counted(err.count, 'triangle', 'triangles')} of Blender's triangulation "
+                f"{'comes' if err.count == 1 else 'come'} twice (first: faces {a} and {b} "
                 "share three vertices, so one lies across the other)"
             )
             hint = "Delete or dissolve one of the two faces, or move a vertex off the other's diagonal"
     if err.kind == "non_manifold_edge" and err.edges is not None and len(err.edges):
         overlap = _faces_across(sel, err.edges[0])
         if overlap is not None:  # not an edge of the mesh: Select Non Manifold would show nothing
-            a, b = overlap
-            text += f": a diagonal of face {a}, which face {b} lies across"
-            hint = "Delete or dissolve one of the two faces, or move a vertex off the diagonal"
+            a, b, both = overlap
+            x, y = (int(sel.vert_ids[v]) for v in err.edges[0])
+            if both:
+                text = (
+                    f"faces {a} and {b} overlap: Blender splits both along their diagonal between vertices {x} and {y}"
+                )
+            else:
+                text = (
+                    f"faces {a} and {b} overlap: Blender splits face {a} along its diagonal between "
+                    f"vertices {x} and {y}, which is a side of face {b}"
+                )
+            quads = [f for f in ((a, b) if both else (a,)) if np.count_nonzero(sel.tri_poly == f) == 2]
+            hint = "Delete or dissolve one of the two faces"
+            if quads:  # a convex quad is split along its other diagonal when this one clashes
+                which = f"face {quads[0]}" if len(quads) == 1 else "one of them"
+                hint = (
+                    f"Make {which} convex (it is then split along its other diagonal), "
+                    "or delete or dissolve one of the two faces"
+                )
     return f"'{sel.name}': {text}" + (f". {hint}" if hint else "")
 
 
-def _faces_across(sel: mesh_io.Selection, edge) -> tuple[int, int] | None:
-    """For a vertex pair ``edge`` of the selection that is a diagonal inside one mesh face
-    (a quad or n-gon split there) and a side of another: those two faces."""
+def _faces_across(sel: mesh_io.Selection, edge) -> tuple[int, int, bool] | None:
+    """For a vertex pair ``edge`` of the selection that is a diagonal inside a mesh face
+    (a quad or n-gon split there) and a side or a diagonal of another: those two faces,
+    and whether it is a diagonal of both."""
     a, b = sorted(int(v) for v in edge)
     if not len(sel.diagonals) or not (np.sort(sel.diagonals, axis=1) == (a, b)).all(axis=1).any():
         return None
     on = (sel.F == a).any(axis=1) & (sel.F == b).any(axis=1)
     polys, count = np.unique(sel.tri_poly[on], return_counts=True)
-    inside = polys[count == 2]  # both triangles of the split face hold the diagonal
+    inside = polys[count == 2]  # both triangles of a split face hold its diagonal
     others = polys[count == 1]
-    if not inside.size or not others.size:
-        return None
-    return int(inside[0]), int(others[0])
+    if len(inside) >= 2:
+        return int(inside[0]), int(inside[1]), True
+    if len(inside) and len(others):
+        return int(inside[0]), int(others[0]), False
+    return None
 
 
 def _overlapping_faces(sel: mesh_io.Selection, t: int) -> tuple[int, int] | None:
@@ -390,7 +411,8 @@ def _warnings(res) -> list[str]:
     out = [w for w in res.warnings if getattr(w, "kind", "") != "pin_conflict"]
     if res.stats.get("pin_conflicts"):
         out.append(
-            f"{res.stats['pin_conflicts']} pinned vertices have corners pinned to different UVs: each corner "
+            f"{counted(res.stats['pin_conflicts'], 'pinned vertex has', 'pinned vertices have')} corners pinned "
+            "to different UVs: each corner "
             "stays on its pin, so the faces around them stretch between the pins "
             "(unpin all but one UV of each to avoid it)"
         )

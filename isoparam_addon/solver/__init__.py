@@ -21,7 +21,7 @@ from .align import fit_rotation_scale, orient, pack_islands, place, signed_areas
 from .blocks import Islands
 from .cuts import area_distortion, next_paths
 from .embed import plan_elimination, spectral_embedding
-from .errors import InvalidMeshError, IsoparamError, SolverError
+from .errors import InvalidMeshError, IsoparamError, SolverError, counted
 from .local import local_flattening
 from .mesh import Topology, build_topology, unit_of
 from .pins import fit_to_pins, pin_targets, pins_spread, refine_to_pins, similarity
@@ -99,9 +99,11 @@ class Parametrization:
         turned round too, so ``flipped`` counts what :attr:`flipped` flags.
         """
         V, F = self._mesh
-        turned = self._turned[:, None]
-        F = np.where(turned, F[:, ::-1], F)
-        cuv = np.where(turned[:, :, None], self.corner_uv[:, ::-1], self.corner_uv)
+        cuv = self.corner_uv
+        if self._turned is not None:
+            turned = self._turned[:, None]
+            F = np.where(turned, F[:, ::-1], F)
+            cuv = np.where(turned[:, :, None], cuv[:, ::-1], cuv)
         return metrics.distortion(V, F, cuv, self.face_island)
 
 
@@ -116,7 +118,8 @@ def _opened(topo: Topology) -> list[str]:
     ):
         if len(isl):
             out.append(
-                f"{len(isl)} island(s) {name} were cut into disks automatically "
+                f"{counted(len(isl), 'island', 'islands')} {name} {'was' if len(isl) == 1 else 'were'} cut into "
+                "disks automatically "
                 f"(first: island {isl[0]}); mark seams to choose the cut"
             )
     return out
@@ -146,7 +149,8 @@ def _warnings(facts: dict, converged: np.ndarray, flipped: np.ndarray) -> list[s
     if facts["clipped"].any():
         out.append(f"step 4 fitted a degenerate scale on {int(facts['clipped'].sum())} island(s)")
     if facts["regularized"].any():
-        out.append(f"{int(facts['regularized'].sum())} vertices have no exact reconstruction (degenerate fans)")
+        n = int(facts["regularized"].sum())
+        out.append(f"{counted(n, 'vertex has', 'vertices have')} no exact reconstruction (degenerate fans)")
     restarted = {name: int(facts[name].sum()) for name in ("conformal", "tutte")}
     if sum(restarted.values()):
         seeds = " and ".join(
@@ -158,13 +162,14 @@ def _warnings(facts: dict, converged: np.ndarray, flipped: np.ndarray) -> list[s
     one_point = facts["one_point"]
     if one_point.any():
         out.append(
-            f"{int(one_point.sum())} island(s) have all their pins on one UV (first: island "
+            f"{counted(int(one_point.sum()), 'island has', 'islands have')} all their pins on one UV (first: island "
             f"{np.argmax(one_point)}): moved there, not scaled or shaped by them"
         )
     mean = facts["pin_mean"]
     if mean.any():
         text = (
-            f"{int(mean.sum())} pinned vertices have corners pinned to different UVs (first: island "
+            f"{counted(int(mean.sum()), 'pinned vertex has', 'pinned vertices have')} corners pinned to different "
+            f"UVs (first: island "
             f"{np.argmax(mean > 0)}): each is held at their mean"
         )
         out.append(Notice(text, "pin_conflict"))
@@ -175,9 +180,16 @@ def _warnings(facts: dict, converged: np.ndarray, flipped: np.ndarray) -> list[s
             f"(first: island {missed[0]})"
         )
     if flipped.any():
-        out.append(f"{int(flipped.sum())} triangle(s) are flipped in the layout (first: face {np.argmax(flipped)})")
+        n = int(flipped.sum())
+        out.append(
+            f"{counted(n, 'triangle is', 'triangles are')} flipped in the layout (first: face {np.argmax(flipped)})"
+        )
     if facts["unused"]:
-        out.append(f"{facts['unused']} vertices belong to no face and were placed at (0, 0)")
+        n = facts["unused"]
+        out.append(
+            f"{counted(n, 'vertex belongs', 'vertices belong')} to no face and "
+            f"{'was' if n == 1 else 'were'} placed at (0, 0)"
+        )
     return out
 
 

@@ -126,7 +126,11 @@ def place(Y, islands: Islands, pack: bool = True, margin: float = 0.02, fixed=No
     R = U[:, :, ::-1].copy()  # major axis first
     R[:, :, 1] *= np.sign(np.linalg.det(R))[:, None]  # keep orientation
     Yr = islands.apply(Yc, R)
-    skew = islands.sum(Yr[:, :1] ** 3)[:, 0]
+    # in units of the island's spread: cubes of the raw coordinates overflow beyond ~1e102
+    # (pins far from a mesh collapsed to a point)
+    spread = np.sqrt(np.einsum("ijj->i", cov) / np.maximum(islands.size, 1))
+    u = Yr[:, :1] / islands.expand(np.where(spread > 0, spread, 1.0))[:, None]
+    skew = islands.sum(u**3)[:, 0]
     turn = np.where(skew < 0, -1.0, 1.0)
     Yr *= islands.expand(turn)[:, None]
     if fixed.any():

@@ -70,9 +70,16 @@ def offenders(kind: str, what: str, element: str, indices, edges=None) -> Invali
     return InvalidMeshError(kind, f"{count} {plural} {what} (first: {first})", element, indices, edges)
 
 
+_SINGULAR = {"have": "has", "are": "is", "index": "indexes", "use": "uses", "repeat": "repeats", "join": "joins"}
+
+
 def _singular_verb(what: str) -> str:
     """The phrase with its first word, a plural verb, in the singular: have -> has,
-    are -> is, index -> indexes, repeat -> repeats."""
+    are -> is, index -> indexes (every verb an offender message uses is in the table)."""
     verb, _, rest = what.partition(" ")
-    verb = {"have": "has", "are": "is"}.get(verb) or verb + ("es" if verb.endswith(("s", "x", "sh", "ch")) else "s")
-    return f"{verb} {rest}" if rest else verb
+    return f"{_SINGULAR[verb]} {rest}" if rest else _SINGULAR[verb]
+
+
+def counted(n: int, one: str, many: str) -> str:
+    """``"1 vertex has"`` or ``"3 vertices have"``: the count with the words that agree."""
+    return f"{n} {one if n == 1 else many}"

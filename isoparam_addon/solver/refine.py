@@ -427,15 +427,9 @@ def refine(
         x, stuck = _reseed(X, faces, out.uv, he_twin, islands, frames, each, pinned, out, order)
     else:
         x, stuck = out.uv, np.zeros(islands.n, dtype=bool)
-    # islands that still fold, islands with nothing free, and islands whose energy is not
-    # finite (a face with det J so small that its square underflows: fuzzing found one
-    # with every vertex on one point and pins apart, and inf - inf made its UVs NaN)
-    # are left as they are
+    # islands that still fold, and islands with nothing free, are left as they are
     free_count = np.bincount(islands.label, ~pinned, minlength=islands.n)
-    J = frames.jacobians(x)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        endless = each.face_sum(~np.isfinite(_energy_terms(*J, area)[0])) > 0
-    active = ~stuck & ~endless & (free_count > 0)
+    active = ~stuck & (free_count > 0)
     live_face = active[each.face]
     live_area = float(area[live_face].sum())
     every_face_live = bool(live_face.all())
@@ -444,7 +438,7 @@ def refine(
     def energies(J):
         """Per-island energy (0 for islands left alone: they may hold folds) and the
         per-face derivatives dE/dJ, which :func:`gradient` turns into dE/duv."""
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             e, G = _energy_terms(*J, area)
         return each.face_sum(e if every_face_live else np.where(live_face, e, 0.0)), G
 
@@ -466,8 +460,9 @@ def refine(
         y = solve_columns(lu, np.take(g, perm, axis=0))
         return np.take(np.vstack([y, np.zeros((1, y.shape[1]))]), slot, axis=0)
 
+    J = frames.jacobians(x)
     E, G = energies(J)
-    out.energy.append(float(E.sum()) / max(live_area, 1e-300))
+    history = [E]  # per island, the seed's and each ARAP step's
     # ARAP first (Liu et al. 2008): large, cheap moves with the same factorization
     stepping = active.copy()
     for _ in range(arap):  # local/global steps
@@ -496,8 +491,20 @@ def refine(
         G = [np.where(each.faces_of(take), gy, gk) for gy, gk in zip(Gy, G)]
         E = np.where(take, Ey, E)
         stepping = take  # an island that declines once has reached ARAP's reach
-        out.energy.append(float(E.sum()) / live_area)
+        history.append(E)
         out.arap_iterations += 1
+    # an island whose energy is still infinite (a face whose det J squared underflows, and
+    # ARAP found no better: fuzzing, every vertex on one point and pins apart) is left as
+    # it is: the descent's inf - inf made its UVs NaN
+    endless = active & ~np.isfinite(E)
+    if endless.any():
+        active &= ~endless
+        live_face = active[each.face]
+        live_area = float(area[live_face].sum())
+        every_face_live = bool(live_face.all())
+        E, G = energies(J)
+        history = [np.where(endless, 0.0, h) for h in history]
+    out.energy += [float(h.sum()) / max(live_area, 1e-300) for h in history]
     g = gradient(G)
     memory = []  # L-BFGS pairs (s, y, rho per island); an island's rho is 0 where unused
     whisper = np.repeat(proxy.whisper, 2).reshape(-1, 2)  # per row and column: no (n, 1) broadcast
@@ -536,7 +543,7 @@ def refine(
             else:  # few faces still searching: evaluate only theirs, the rest stands
                 tf = t[each.face[f]]
                 Jf = [np.take(j, f) + tf * np.take(dj, f) for j, dj in zip(J, dJ)]
-                with np.errstate(divide="ignore", invalid="ignore"):
+                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                     ef, Gf = _energy_terms(*Jf, np.take(area, f))
                 for k in range(4):
                     Jt[k][f], Gt[k][f] = Jf[k], Gf[k]

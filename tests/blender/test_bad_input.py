@@ -156,13 +156,17 @@ def test_quads_whose_diagonal_clashes_are_split_along_the_other(scene, case):
         assert len(np.unique(np.column_stack([cv, uv.view(np.int32)]), axis=0)) == len(V)
 
 
-def test_a_concave_quad_is_not_split_along_its_outside_diagonal(scene):
+@pytest.mark.parametrize("other", ["triangle", "concave quad"])
+def test_a_concave_quad_is_not_split_along_its_outside_diagonal(scene, other):
     # Blender splits a concave quad along its inside diagonal; a triangle on that diagonal
-    # clashes, and the other diagonal runs outside the quad: its triangles would overlap
-    # in 3D and fold the layout. The unwrap refuses, names the two faces, changes nothing.
-    V = [(0, 0, 0), (1, 0, 0), (0.3, 0.3, 0), (0, 1, 0), (0.1, 0.1, 1)]
+    # (or another concave quad split there) clashes, and the other diagonal runs outside
+    # the quad: its triangles would overlap in 3D and fold the layout. The unwrap refuses,
+    # names the two faces, changes nothing.
+    V = [(0, 0, 0), (1, 0, 0), (0.3, 0.3, 0), (0, 1, 0), (0.1, 0.1, 1), (0.8485, 0.8485, -0.5)]
+    V[4] = (0.8485, 0.8485, 0.5) if other == "concave quad" else V[4]  # an arrowhead over 0 - 2
+    F = [(0, 1, 2, 3), (0, 2, 4)] if other == "triangle" else [(0, 1, 2, 3), (0, 4, 2, 5)]
     me = bpy.data.meshes.new("concave")
-    me.from_pydata(V, [], [(0, 1, 2, 3), (0, 2, 4)])
+    me.from_pydata(V, [], F)
     me.update()
     ob = bpy.data.objects.new("concave", me)
     bpy.context.scene.collection.objects.link(ob)
@@ -172,8 +176,13 @@ def test_a_concave_quad_is_not_split_along_its_outside_diagonal(scene):
     before = snapshot(ob)
     result, message = run_and_capture(ob)
     assert result == {"CANCELLED"}
-    assert "a diagonal of face 0, which face 1 lies across" in message
-    assert "Delete or dissolve one of the two faces" in message and "Nothing was changed" in message
+    if other == "triangle":
+        assert "faces 0 and 1 overlap: Blender splits face 0 along its diagonal between vertices 0 and 2" in message
+        assert "which is a side of face 1. Make face 0 convex" in message
+    else:
+        assert "faces 0 and 1 overlap: Blender splits both along their diagonal between vertices 0 and 2" in message
+        assert "Make one of them convex" in message
+    assert "Nothing was changed" in message
     assert "Non Manifold" not in message  # Blender's mesh has no such edge: it would show nothing
     assert snapshot(ob) == before
 

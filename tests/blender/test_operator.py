@@ -263,7 +263,7 @@ def test_a_vertex_pinned_to_different_uvs_keeps_every_pin_and_is_reported_so(sce
     object_mode()
     assert np.array_equal(corner_uvs(ob)[pins].tobytes(), uv[pins].tobytes())
     text = out.out + out.err
-    assert "1 pinned vertices have corners pinned to different UVs: each corner stays on its pin" in text
+    assert "1 pinned vertex has corners pinned to different UVs: each corner stays on its pin" in text
     assert "held at their mean" not in text
 
 
@@ -566,7 +566,9 @@ def test_true_world_scale_keeps_the_digits_of_a_small_object_far_from_the_origin
     assert unwrap(world_scale=True, pack=False) == {"FINISHED"}
     object_mode()
     Vb, Fb, cuv = triangle_uvs(ob)
-    assert metrics.edge_rms(1e-12 * Vb, Fb, cuv) < 1e-5
+    assert metrics.edge_rms(1e-12 * Vb, Fb, cuv) < 1e-5  # (edge_rms fits the scale)
+    l3, l2 = metrics.edge_lengths(1e-12 * Vb, Fb, cuv)
+    assert np.median(l2 / l3) == pytest.approx(1.0, rel=1e-5)  # world units: 1e-12 of the mesh's
 
 
 def image_material(name, width, height):
