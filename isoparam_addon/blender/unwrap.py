@@ -14,7 +14,7 @@ import bpy
 import numpy as np
 
 from ..solver import InvalidMeshError, parametrize
-from ..solver.errors import counted
+from ..solver.errors import counted, offenders
 from . import layout, mesh_io, stretch
 
 __all__ = ["Options", "run"]
@@ -50,6 +50,11 @@ def _describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
         first = int(err.indices[0])
         if err.element == "vertex" and first < len(sel.vert_ids):
             text = text.replace(f"vertex {first})", f"vertex {int(sel.vert_ids[first])})")
+        elif err.element == "face" and err.what and (err.indices < len(sel.tri_poly)).all():
+            # triangles -> the mesh faces they come from, counted once each (a quad is two)
+            poly = sel.tri_poly[err.indices]
+            _, at = np.unique(poly, return_index=True)
+            text = str(offenders(err.kind, err.what, "face", poly[np.sort(at)]))
         elif err.element == "face" and first < len(sel.tri_poly):
             text = text.replace(f"face {first})", f"face {int(sel.tri_poly[first])})")
         elif err.element == "edge" and err.edges is not None:
@@ -212,17 +217,22 @@ def run(op, context, opts: Options) -> set:
                 if opts.show_stretch:
                     _write_stretch(s.obj.data, s.sel, s.distortion)
             held = any(s.held.any() for s in solved)
-            far = any(np.abs(s.corner_uv).max() > layout.FAR for s in solved)
+            # (a corner locked by the UV selection may keep a UV that is not finite)
+            far = any(not (np.abs(s.corner_uv) <= layout.FAR).all() for s in solved)
             # a single island was fitted into the unit square by layout.place already
             # (Blender's pack would spend 0.17 s on it at 100k vertices)
             pack = opts.pack and not far and (sum(s.n_islands for s in solved) > 1 or held)
             # what the pack changes besides the UVs, kept while the mesh arrays are at hand
-            kept = _prepare_pack(solved, uv_editor and not sync, not sync and _SYNC_RESELECTS) if pack else []
+            kept = _prepare_pack(solved, objects, uv_editor and not sync, not sync and _SYNC_RESELECTS) if pack else []
             wm.progress_update(2 * len(objects) + 1)
     finally:
         wm.progress_end()
     if far and opts.pack:  # Blender's packer makes NaN of such UVs, or crashes
-        op.report({"WARNING"}, f"Isometric Unwrap: not packed: UVs beyond {layout.FAR:.0e} (far pins, or world scale)")
+        op.report(
+            {"WARNING"},
+            f"Isometric Unwrap: not packed: UVs beyond {layout.FAR:.0e} or not finite (far pins, world scale, "
+            "or a kept corner)",
+        )
     if pack:
         _pack(context, solved, opts, held or any(k.pins_set for k in kept), kept)
     _report(op, solved, time.perf_counter() - t0)
@@ -246,12 +256,20 @@ class _Kept:
     pins_set: bool
 
 
-def _prepare_pack(solved, uv_selection_locks: bool, reselects: bool) -> list[_Kept]:
+def _prepare_pack(solved, objects, uv_selection_locks: bool, reselects: bool) -> list[_Kept]:
     """Before the pack (object mode): pin the corners locked by the UV selection (UV
     editor, sync off; the packer keeps only pinned islands in place), and keep the UV
-    selection and pins of the meshes whose UV selection the pack's sync switch would
-    rewrite (``reselects``) or whose pins change."""
+    selection and pins of the meshes whose pins change, and, where the pack's sync switch
+    would rewrite the UV selection (``reselects``), of every mesh in edit mode (``objects``:
+    the ones with nothing selected too)."""
     kept = []
+    if reselects:
+        done = {id(s.obj.data) for s in solved}
+        for ob in objects:
+            me = ob.data
+            if id(me) not in done:  # (no UV map is made for it)
+                name = me.uv_layers.active.name if me.uv_layers.active is not None else ""
+                kept.append(_Kept(me, name, mesh_io.uv_selection(me, name), None, False))
     for s in solved:
         mask = np.zeros(len(s.sel.locked), dtype=bool)
         if uv_selection_locks:
@@ -311,6 +329,10 @@ def _solve(sel: mesh_io.Selection, opts: Options):
     UVs (t, 3, 2)."""
     locked = sel.locked[sel.tri_loops]
     old = np.take(sel.uv, sel.tri_loops, axis=0).astype(np.float64)
+    # a corner locked by the UV selection whose UV is not finite holds nothing in place: it
+    # keeps its value (layout.place) and its vertex is laid out as free, as by uv.unwrap;
+    # a real pin there is an error (the solver names it)
+    hold = locked & (np.isfinite(old).all(axis=2) | sel.pinned[sel.tri_loops])
     res = parametrize(
         sel.V,
         sel.F,
@@ -318,7 +340,7 @@ def _solve(sel: mesh_io.Selection, opts: Options):
         pack=True,
         split_bowties=True,
         refine=opts.refine,
-        pins=(locked, old) if locked.any() else None,
+        pins=(hold, old) if hold.any() else None,
         inner_edges=sel.diagonals,
         extra_cuts=opts.extra_cuts,
     )
@@ -373,7 +395,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             margin=opts.margin if opts.pack else 0.0,
         )
         with np.errstate(over="ignore"):
-            stored = uv.astype(np.float32)  # what the UV map would hold
+            stored = uv[~locked].astype(np.float32)  # what the UV map would hold (locked: as it was)
         if not np.isfinite(stored).all():
             op.report(
                 {"ERROR"},

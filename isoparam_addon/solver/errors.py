@@ -41,6 +41,7 @@ class InvalidMeshError(IsoparamError, ValueError):
         self.element = element
         self.indices = np.asarray([] if indices is None else indices, dtype=np.int64)
         self.edges = None if edges is None else np.asarray(edges, dtype=np.int64)
+        self.what = ""  # the message's predicate, its verb in the plural (from :func:`offenders`)
 
     @property
     def count(self) -> int:
@@ -61,13 +62,19 @@ def offenders(kind: str, what: str, element: str, indices, edges=None) -> Invali
     indices = np.asarray(indices, dtype=np.int64).ravel()
     count = indices.size
     plural = element if count == 1 else {"vertex": "vertices"}.get(element, element + "s")
-    if count == 1:
-        what = _singular_verb(what)
     first = f"{element} {indices[0]}" if count else ""
     if edges is not None and count:
         a, b = np.asarray(edges)[0]
         first = f"edge ({a}, {b})"
-    return InvalidMeshError(kind, f"{count} {plural} {what} (first: {first})", element, indices, edges)
+    err = InvalidMeshError(
+        kind,
+        f"{count} {plural} {(_singular_verb(what) if count == 1 else what)} (first: {first})",
+        element,
+        indices,
+        edges,
+    )
+    err.what = what  # (a caller that counts other elements words it again: see the add-on)
+    return err
 
 
 _SINGULAR = {"have": "has", "are": "is", "index": "indexes", "use": "uses", "repeat": "repeats", "join": "joins"}

@@ -187,6 +187,28 @@ def test_a_concave_quad_is_not_split_along_its_outside_diagonal(scene, other):
     assert snapshot(ob) == before
 
 
+def test_a_pinned_quad_is_counted_once(scene):
+    # the solver counts triangles: a quad pinned at a NaN UV on both ends of its diagonal
+    # was "2 faces have pinned corners" (fuzzing)
+    V = [(x, y, 0.0) for y in range(3) for x in range(3)]
+    F = [(3 * j + i, 3 * j + i + 1, 3 * j + i + 4, 3 * j + i + 3) for j in range(2) for i in range(2)]
+    ob = prepared(V, F)
+    me = ob.data
+    me.calc_loop_triangles()
+    tri = np.array([t.loops[:] for t in me.loop_triangles if t.polygon_index == 3])
+    diagonal = np.intersect1d(tri[0], tri[1])  # the two corners both triangles use
+    pins = np.zeros(len(me.loops), dtype=bool)
+    pins[diagonal] = True
+    uv = corner_uvs(ob)
+    uv[diagonal] = np.nan
+    set_uvs_and_pins(ob, uv, pins)
+    before = snapshot(ob)
+    result, message = run_and_capture(ob)
+    assert result == {"CANCELLED"}
+    assert "'bad': 1 face has pinned corners with non-finite UVs (first: face 3)" in message
+    assert snapshot(ob) == before
+
+
 def test_overlapping_faces_are_named_in_the_message():
     # two faces whose triangulations share a triangle (n-gons the other diagonal cannot fix)
     sel = mesh_io.Selection(

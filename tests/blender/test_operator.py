@@ -372,29 +372,76 @@ def test_uv_editor_without_sync_select_keeps_unselected_uvs_and_the_selection(sc
         settings.use_uv_select_sync = True
 
 
-def test_the_3d_viewport_without_sync_select_keeps_the_uv_selection(scene):
+def selection_and_pins(ob):
+    """The mesh and UV selection attributes and the pins, as raw bytes (object mode)."""
+    return {k: v for k, v in snapshot(ob).items() if "select" in k or k.startswith((".vs.", ".es.", ".pn."))}
+
+
+@pytest.mark.parametrize("where", ["3D viewport", "UV editor"])
+def test_without_sync_select_the_pack_keeps_the_uv_selection_of_every_object(scene, where):
     # the pack runs with sync select on; switching it on and off rewrote the UV selection
-    # from the mesh selection (5.0), where Blender's own unwrap leaves it as it was
+    # from the mesh selection (5.0), where Blender's own unwrap leaves it as it was: on the
+    # objects unwrapped, and (fuzzing) on one in edit mode with no face selected
     V, F = ex.peaks(9)
-    ob = add_mesh("seamed", V, F)
-    mark_seams(ob, [(i, i + 1) for i in range(36, 44)])  # two islands: the pack runs
-    picked = V[corner_verts(ob), 0] > 0.1
-    edit(ob)
+    a = add_mesh("seamed", V, F)
+    mark_seams(a, [(i, i + 1) for i in range(36, 44)])  # two islands: the pack runs
+    b = add_mesh("idle", V, F, location=(5, 0, 0))
+    picked = V[corner_verts(a), 0] > 0.1
+    edit(a, b)
     bpy.ops.uv.unwrap()
     object_mode()
     settings = bpy.context.scene.tool_settings
     settings.use_uv_select_sync = False  # in object mode: set in edit mode, it selects every UV
     try:
+        edit(a, b, select_all=False)
+        select_uvs(a, picked)
+        select_uvs(b, picked)
+        bm = bmesh.from_edit_mesh(b.data)
+        for f in bm.faces:  # test set-up on a small mesh: nothing of b to unwrap
+            f.select_set(False)
+        bmesh.update_edit_mesh(b.data)
+        object_mode()
+        state = {ob.name: selection_and_pins(ob) for ob in (a, b)}
+        before = corner_uvs(a).copy()
+        edit(a, b, select_all=False)
+        assert (in_uv_editor(unwrap) if where == "UV editor" else unwrap()) == {"FINISHED"}
+        object_mode()
+        assert not np.allclose(corner_uvs(a)[picked], before[picked])  # unwrapped and packed
+        assert {ob.name: selection_and_pins(ob) for ob in (a, b)} == state
+    finally:
+        settings.use_uv_select_sync = True
+
+
+@pytest.mark.parametrize("pack", [False, True])
+def test_an_unselected_uv_that_is_not_finite_is_kept_and_holds_nothing(scene, pack, capfd):
+    # fuzzing: the UV editor locks the corners whose UVs are not selected; one holding a NaN
+    # UV (a broken import) was handed to the solver as a pin and refused as "pinned corners
+    # with non-finite UVs" with nothing pinned. uv.unwrap keeps it and unwraps the rest.
+    V, F = ex.peaks(9)
+    ob = add_mesh("peaks", V, F)
+    picked = V[corner_verts(ob), 0] > 0.1
+    edit(ob)
+    bpy.ops.uv.unwrap()
+    object_mode()
+    settings = bpy.context.scene.tool_settings
+    settings.use_uv_select_sync = False
+    try:
+        uv = corner_uvs(ob).copy()
+        bad = np.flatnonzero(~picked)[0]
+        uv[bad] = (np.nan, 0.5)
+        set_uvs_and_pins(ob, uv, np.zeros(len(uv), dtype=bool))
         edit(ob, select_all=False)
         select_uvs(ob, picked)
+        assert in_uv_editor(lambda: unwrap(pack=pack)) == {"FINISHED"}
         object_mode()
-        state = {k: v for k, v in snapshot(ob).items() if "select" in k or k.startswith((".vs.", ".es.", ".pn."))}
-        before = corner_uvs(ob).copy()
-        edit(ob, select_all=False)
-        assert unwrap() == {"FINISHED"}
-        object_mode()
-        assert not np.allclose(corner_uvs(ob), before)  # unwrapped and packed, every face
-        assert {k: v for k, v in snapshot(ob).items() if k in state or k.startswith(".pn.")} == state
+        after = corner_uvs(ob)
+        assert np.isnan(after[bad, 0]) and after[bad, 1] == 0.5
+        keep = ~picked
+        keep[bad] = False
+        assert np.array_equal(after[keep], uv[keep])
+        assert np.isfinite(after[picked]).all() and not np.allclose(after[picked], uv[picked])
+        if pack:  # Blender's packer would spread the NaN over the islands it packs
+            assert "not packed" in "".join(capfd.readouterr())
     finally:
         settings.use_uv_select_sync = True
 
