@@ -32,6 +32,15 @@ def prepared(V, F):
     return ob
 
 
+def pin_at_nan(ob, corners):
+    """Pin these corners (object mode), their UVs NaN, and nothing else."""
+    pins = np.zeros(len(ob.data.loops), dtype=bool)
+    pins[corners] = True
+    uv = corner_uvs(ob)
+    uv[corners] = np.nan
+    set_uvs_and_pins(ob, uv, pins)
+
+
 @pytest.mark.parametrize(
     "case, expect",
     [
@@ -60,13 +69,7 @@ def test_bad_meshes_are_reported_and_left_untouched(scene, case, expect):
         me.attributes["position"].data.foreach_set("vector", pos)
         me.update()
     if case == "non_finite_pin":  # face 5's first corner pinned at a NaN UV
-        me = ob.data
-        start = me.polygons[5].loop_start
-        pins = np.zeros(len(me.loops), dtype=bool)
-        pins[start] = True
-        uv = corner_uvs(ob)
-        uv[start] = np.nan
-        set_uvs_and_pins(ob, uv, pins)
+        pin_at_nan(ob, [ob.data.polygons[5].loop_start])
     before = snapshot(ob)
     result, message = run_and_capture(ob)
     assert result == {"CANCELLED"}
@@ -196,12 +199,7 @@ def test_a_pinned_quad_is_counted_once(scene):
     me = ob.data
     me.calc_loop_triangles()
     tri = np.array([t.loops[:] for t in me.loop_triangles if t.polygon_index == 3])
-    diagonal = np.intersect1d(tri[0], tri[1])  # the two corners both triangles use
-    pins = np.zeros(len(me.loops), dtype=bool)
-    pins[diagonal] = True
-    uv = corner_uvs(ob)
-    uv[diagonal] = np.nan
-    set_uvs_and_pins(ob, uv, pins)
+    pin_at_nan(ob, np.intersect1d(tri[0], tri[1]))  # the two corners both triangles use
     before = snapshot(ob)
     result, message = run_and_capture(ob)
     assert result == {"CANCELLED"}
