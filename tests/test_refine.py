@@ -204,6 +204,42 @@ def test_tutte_seed_never_folds():
         assert (signed_double_areas(uv, topo.faces) > 0).all()
 
 
+def _icosahedron_with_a_face_collapsed():
+    """A closed icosahedron (Blender's ico sphere, 1 subdivision) whose face (6, 10, 11)
+    was collapsed to its centre: three coincident vertices, four faces of no area."""
+    r, z = 0.894, 0.447
+    ring = np.arange(5) * 2 * np.pi / 5
+    lower = np.stack([r * np.cos(ring - 0.2 * np.pi), r * np.sin(ring - 0.2 * np.pi), -z * np.ones(5)], axis=1)
+    upper = np.stack([r * np.cos(ring), r * np.sin(ring), z * np.ones(5)], axis=1)
+    V = np.vstack([[0, 0, -1], lower, upper, [0, 0, 1]])  # 0, 1-5, 6-10, 11
+    F = np.array(
+        [[0, 1, 2], [1, 0, 5], [0, 2, 3], [0, 3, 4], [0, 4, 5], [1, 5, 10], [2, 1, 6], [3, 2, 7], [4, 3, 8],
+         [5, 4, 9], [1, 10, 6], [2, 6, 7], [3, 7, 8], [4, 8, 9], [5, 9, 10], [6, 10, 11], [7, 6, 11], [8, 7, 11],
+         [9, 8, 11], [10, 9, 11]]
+    )  # fmt: skip
+    V[[6, 10, 11]] = V[[6, 10, 11]].mean(axis=0)
+    return V, F
+
+
+def test_coincident_boundary_vertices_do_not_collapse_the_tutte_seed():
+    # found by fuzzing: the cut put the three coincident vertices on the boundary, the
+    # chord-length circle put them on one point, and the faces between them had no area;
+    # no seed was left, the island was not refined, and 8 of its 20 triangles stayed flipped
+    from isoparam_addon.solver.mesh import build_topology
+    from isoparam_addon.solver.refine import FaceFrames
+    from isoparam_addon.solver.seeds import signed_double_areas, tutte
+
+    V, F = _icosahedron_with_a_face_collapsed()
+    V, F, topo = build_topology(V, F)
+    X = V[topo.vertex_of]
+    islands = Islands(topo.vertex_island, topo.n_islands)
+    uv = tutte(X, topo.faces, topo.he.twin, islands, FaceFrames(X, topo.faces), np.ones(islands.n, bool))
+    assert (signed_double_areas(uv, topo.faces) > 0).all()
+    r = parametrize(*_icosahedron_with_a_face_collapsed(), refine=100)
+    assert r.stats["reseeded"]["tutte"] == 1 and r.stats["refine_iterations"] > 0
+    assert not r.flipped.any() and np.isfinite(r.corner_uv).all()
+
+
 def test_seeds_solved_in_a_fill_reducing_order_are_the_same_seeds():
     """lscm and tutte eliminate in Step 3's nested-dissection order when given one: the
     same layout as SuperLU's own COLAMD order, on the flagged islands only."""

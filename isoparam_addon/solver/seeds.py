@@ -134,9 +134,14 @@ def tutte(X, faces, he_twin, islands: Islands, frames, which: np.ndarray, order=
         live = pp >= 0
         dist = np.where(live, dist + dist[np.maximum(pp, 0)], dist)
         pp = np.where(live, pp[np.maximum(pp, 0)], -1)
-    # chord-length parameter along the loop
+    # chord-length parameter along the loop, each step at least 1e-3 of the loop's mean:
+    # coincident boundary vertices (a face collapsed to a point, found by fuzzing) took
+    # one point of the circle, and the faces between them no area
+    chord = np.linalg.norm(X[b] - X[a], axis=1)  # from a to its successor
+    count = np.bincount(islands.label[a], minlength=islands.n)
+    mean = np.bincount(islands.label[a], chord, minlength=islands.n) / np.maximum(count, 1)
     seg = np.zeros(n)
-    seg[a] = np.linalg.norm(X[b] - X[a], axis=1)  # from a to its successor
+    seg[a] = np.maximum(chord, np.where(mean > 0, 1e-3 * mean, 1.0)[islands.label[a]])
     loop_vertices = np.flatnonzero(on_loop)
     loop = loop_vertices[np.lexsort((dist[loop_vertices], islands.label[loop_vertices]))]
     isl = islands.label[loop]
