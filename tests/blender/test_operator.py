@@ -71,6 +71,16 @@ def select_faces(ob, sel):
     bpy.context.tool_settings.mesh_select_mode = (False, False, True)
 
 
+def unwrapped(name, V, F):
+    """A new mesh object unwrapped once: the object, a copy of its corner UVs (k, 2) and
+    each corner's vertex (k,), back in object mode."""
+    ob = add_mesh(name, V, F)
+    edit(ob)
+    unwrap()
+    object_mode()
+    return ob, corner_uvs(ob).copy(), corner_verts(ob)
+
+
 def test_operator_is_listed_in_the_unwrap_menus():
     menu = bpy.types.IMAGE_MT_uvs_unwrap
     names = [f.__name__ for f in menu._dyn_ui_initialize()]
@@ -198,12 +208,7 @@ def test_quads_and_ngons_get_one_uv_per_corner(scene):
 
 
 def test_unselected_faces_keep_their_uvs(scene):
-    V, F = ex.peaks(21)
-    ob = add_mesh("peaks", V, F)
-    edit(ob)
-    unwrap()
-    object_mode()
-    before = corner_uvs(ob).copy()
+    ob, before, _ = unwrapped("peaks", *ex.peaks(21))
     me = ob.data
     sel = np.zeros(len(me.polygons), dtype=bool)
     sel[: len(sel) // 2] = True
@@ -220,12 +225,7 @@ def test_unselected_faces_keep_their_uvs(scene):
 
 def test_pinned_uvs_hold(scene):
     V, F = ex.peaks(21)
-    ob = add_mesh("peaks", V, F)
-    edit(ob)
-    unwrap()
-    object_mode()
-    uv = corner_uvs(ob).copy()
-    cv = corner_verts(ob)
+    ob, uv, cv = unwrapped("peaks", V, F)
     # move two corner vertices' UVs somewhere and pin them
     pinned_verts = [0, 20]
     target = {0: (0.1, 0.2), 20: (0.7, 0.3)}
@@ -247,12 +247,7 @@ def test_a_vertex_pinned_to_different_uvs_keeps_every_pin_and_is_reported_so(sce
     # the solver holds such a vertex at the mean of its pins; the operator writes each
     # pinned corner back on its own UV, so its warning must say that, not the solver's
     V, F = ex.peaks(11)
-    ob = add_mesh("peaks", V, F)
-    edit(ob)
-    unwrap()
-    object_mode()
-    uv = corner_uvs(ob).copy()
-    cv = corner_verts(ob)
+    ob, uv, cv = unwrapped("peaks", V, F)
     uv[np.flatnonzero(cv == 60)[0]] += (0.05, 0.0)  # one corner of an interior vertex moved
     pins = np.isin(cv, [0, 10, 60, 120])
     set_uvs_and_pins(ob, uv, pins)
