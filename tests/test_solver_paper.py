@@ -249,10 +249,11 @@ def test_an_island_that_converges_slowly_goes_on_alone(monkeypatch):
     assert sizes == [alone.stats["split_vertices"]]  # the box's rows (once cut open) alone
     assert r.eigenvalues[box] == pytest.approx(alone.eigenvalues[0], rel=1e-6)
     assert r.stats["iterations"] < alone.stats["iterations"]
-    # the layouts agree (Step 4 makes them unique up to a rigid motion)
+    # the layouts agree up to where the packing put them: Step 4 makes them unique up to a
+    # rigid motion, and the box's turn is canonical (align.canonical_turn)
     mine = r.face_island == box
     ours, theirs = r.corner_uv[mine].reshape(-1, 2), alone.corner_uv.reshape(-1, 2)
-    assert procrustes_error(ours, theirs) < 1e-6
+    assert np.abs((ours - ours.mean(axis=0)) - (theirs - theirs.mean(axis=0))).max() < 1e-6 * np.ptp(theirs)
     monkeypatch.setattr(embed, "_HANDOVER", 0.0)  # no hand-over: the same result
     kept = parametrize(V, F, inner_edges=D)
     assert np.abs(kept.corner_uv - r.corner_uv).max() < 1e-6 * np.abs(r.corner_uv).max()

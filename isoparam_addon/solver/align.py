@@ -9,11 +9,13 @@ The eigendecomposition of A gives R and S, and ``y_i = S R y_Ii`` (Eq. 15).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from .blocks import Islands
 
-__all__ = ["fit_rotation_scale", "orient", "place", "signed_areas"]
+__all__ = ["Turn", "canonical_turn", "fit_rotation_scale", "orient", "place", "signed_areas"]
 
 
 def fit_rotation_scale(Y_I, edges, length, edge_island, islands: Islands):
@@ -67,7 +69,7 @@ def _least_squares(rows: np.ndarray, target: np.ndarray, label: np.ndarray, n: i
         dot = lambda x, y: np.bincount(label, x * y, minlength=n)  # noqa: E731
         spread = lambda c: c[label]  # noqa: E731
     R = np.zeros((n, 3, 3))
-    Q = []
+    Q: list[np.ndarray] = []
     for j in range(3):
         q = rows[:, j].copy()
         start = np.sqrt(dot(q, q))
@@ -109,33 +111,119 @@ def orient(Y, faces, face_island, islands: Islands):
 
 
 def place(Y, islands: Islands, pack: bool = True, margin: float = 0.02, fixed=None):
-    """Align each island with its principal axes and put the islands side by side.
+    """Turn each island into its canonical frame (:func:`canonical_turn`) and put the
+    islands side by side.
 
-    The rotation makes the layout deterministic and compact. With ``pack`` the islands
-    go on shelves in mesh units (true scale, no overlap), ``margin`` being a fraction of
-    the square root of their total area; otherwise each island is centred at the origin.
+    The turn makes the layout deterministic and compact. With ``pack`` the islands go on
+    shelves in mesh units (true scale, no overlap), ``margin`` being a fraction of the
+    square root of their total area; otherwise each island is centred at the origin.
     Islands in ``fixed`` (n_islands,) bool keep their frame (pinned islands); packed
     islands go to the right of them.
     """
     nI = islands.n
     fixed = np.zeros(nI, dtype=bool) if fixed is None else fixed
-    c = islands.mean(Y)
-    Yc = Y - islands.expand(c)
-    cov = islands.gram(Yc, Yc)
-    _, U = np.linalg.eigh(cov)
-    R = U[:, :, ::-1].copy()  # major axis first
-    R[:, :, 1] *= np.sign(np.linalg.det(R))[:, None]  # keep orientation
-    Yr = islands.apply(Yc, R)
-    # in units of the island's spread: cubes of the raw coordinates overflow beyond ~1e102
-    # (pins far from a mesh collapsed to a point)
-    spread = np.sqrt(np.einsum("ijj->i", cov) / np.maximum(islands.size, 1))
-    u = Yr[:, :1] / islands.expand(np.where(spread > 0, spread, 1.0))[:, None]
-    skew = islands.sum(u**3)[:, 0]
-    turn = np.where(skew < 0, -1.0, 1.0)
-    Yr *= islands.expand(turn)[:, None]
+    Yc = Y - islands.expand(islands.mean(Y))
+    Yr = islands.apply(Yc, canonical_turn(Yc, islands).rotation)
     if fixed.any():
         Yr = np.where(fixed[islands.label][:, None], Y, Yr)
     return pack_islands(Yr, islands, margin, fixed) if pack else Yr
+
+
+_TIE = 1e-3  # moments below this fraction of their scale are ties (symmetric islands)
+
+
+class Turn(NamedTuple):
+    """What :func:`canonical_turn` decided, per island."""
+
+    rotation: np.ndarray  # (n_islands, 2, 2): ``Yc @ rotation`` is the turned island
+    by_anchor: np.ndarray  # (n_islands,) bool: symmetric (rules 1-2 tied): the numbering decided
+
+
+def canonical_turn(Yc: np.ndarray, islands: Islands) -> Turn:
+    """Per island, the rotation that puts its centred rows ``Yc`` (n, 2) in a canonical
+    frame.
+
+    A turn has to be decided from the layout alone, and must not change when the layout
+    changes by rounding (another BLAS kernel, thread count or summation order), also on
+    symmetric islands, where every geometric rule ties. With ``z = u + i v`` per vertex
+    (centred), the rules, in order:
+
+    1. Principal axes: ``M2 = sum z^2`` gives the major axis (angle ``arg(M2) / 2``) when
+       ``|M2| > _TIE sum |z|^2``. Else (as round as it is long), ``M4 = sum z^4`` gives a
+       four-fold frame (angle ``arg(M4) / 4``, a square's sides) when ``|M4| > _TIE sum |z|^4``.
+       Else the frame is free.
+    2. Which of the ``k`` turns left (2 for an axis, 4 for a four-fold frame, any for a
+       free one): for an axis, the one with positive skewness ``sum u^3`` along it, when
+       ``|sum u^3| > _TIE sum |u|^3``. Else the *anchor*, the island's lowest-numbered
+       vertex among those more than half the island's radius from its centre (and, with
+       ``k > 1``, more than a tenth of a sector away from the sectors' edges), is turned
+       into the sector around +u (onto +u for a free frame).
+
+    Every decision is a comparison with a margin of ``_TIE`` or more, so rounding
+    (relative 1e-16 to 1e-10 of the layout) never flips one. The anchor rule depends on
+    the vertex numbering (the input's order): a symmetric island relabelled may come out
+    turned by one of its symmetries. Asymmetric islands are decided by rules 1-2 alone,
+    whatever the numbering.
+    """
+    n_rows = len(Yc)
+    x, y = np.ascontiguousarray(Yc[:, 0]), np.ascontiguousarray(Yc[:, 1])
+    # in units of the island's radius: powers of raw coordinates overflow beyond ~1e77
+    # (pins far from a mesh collapsed to a point)
+    radius = np.hypot(x, y)
+    top = _island_max(radius, islands)
+    unit = islands.expand(np.where(top > 0, top, 1.0))
+    x, y, radius = x / unit, y / unit, radius / unit
+    r2 = x * x + y * y
+    z2 = np.stack([x * x - y * y, 2.0 * x * y], axis=1)  # z^2 as (re, im)
+    z4 = np.stack([z2[:, 0] ** 2 - z2[:, 1] ** 2, 2.0 * z2[:, 0] * z2[:, 1]], axis=1)
+    s = islands.sum(np.column_stack([z2, z4, r2, r2 * r2]))
+    m2, m4 = s[:, 0] + 1j * s[:, 1], s[:, 2] + 1j * s[:, 3]
+    axis = np.abs(m2) > _TIE * s[:, 4]
+    square = ~axis & (np.abs(m4) > _TIE * s[:, 5])
+    k = np.where(axis, 2, np.where(square, 4, 1))
+    theta = np.where(axis, np.angle(m2) / 2, np.where(square, np.angle(m4) / 4, 0.0))
+    # rule 2 for an axis: skewness along it
+    c, sn = np.cos(theta), np.sin(theta)
+    u = x * islands.expand(c) + y * islands.expand(sn)
+    s3 = islands.sum(np.column_stack([u**3, np.abs(u) ** 3]))
+    skewed = axis & (np.abs(s3[:, 0]) > _TIE * s3[:, 1])
+    turn = np.where(skewed & (s3[:, 0] < 0), np.pi, 0.0)
+    # rule 2 otherwise: the anchor
+    sector = 2.0 * np.pi / k
+    alpha = np.arctan2(y, x) - islands.expand(theta)
+    step = alpha / islands.expand(sector)
+    off_edge = (k[islands.label] == 1) | (np.abs(step - np.round(step)) < 0.4)
+    far = radius > 0.5 * islands.expand(np.where(top > 0, 1.0, np.inf))
+    anchor = _first_row(far & off_edge, islands)
+    anchor = np.where(anchor < n_rows, anchor, _first_row(far, islands))
+    has = anchor < n_rows  # islands that are not one point
+    a = np.minimum(anchor, max(n_rows - 1, 0))
+    to_anchor = np.where(k == 1, alpha[a] if n_rows else 0.0, np.round(step[a] if n_rows else 0.0) * sector)
+    turn = np.where(skewed | ~has, turn, to_anchor)
+    angle = theta + turn
+    c, sn = np.cos(angle), np.sin(angle)
+    # y = Yc @ R turns by -angle: the chosen direction goes onto +u
+    R = np.stack([np.stack([c, -sn], axis=1), np.stack([sn, c], axis=1)], axis=1)
+    return Turn(R, ~skewed & has)
+
+
+def _island_max(x: np.ndarray, islands: Islands) -> np.ndarray:
+    """Per-island maximum of per-row values (n,) -> (n_islands,) (-inf for no rows)."""
+    out = np.full(islands.n, -np.inf)
+    has = islands.size > 0
+    if len(x):
+        out[has] = np.maximum.reduceat(x, islands.start[:-1][has])
+    return out
+
+
+def _first_row(mask: np.ndarray, islands: Islands) -> np.ndarray:
+    """Per island, its first row where ``mask`` (n,) holds, or n where none does."""
+    n = len(mask)
+    out = np.full(islands.n, n, dtype=np.int64)
+    has = islands.size > 0
+    if n:
+        out[has] = np.minimum.reduceat(np.where(mask, np.arange(n), n), islands.start[:-1][has])
+    return out
 
 
 def pack_islands(Y, islands: Islands, margin: float = 0.02, fixed=None):
@@ -163,7 +251,10 @@ def _shelves(size: np.ndarray, gap: float) -> np.ndarray:
     k = len(size)
     if k == 1:
         return np.zeros((1, 2))
-    order = np.lexsort((np.arange(k), -size[:, 1]))
+    # tallest first; heights within 1e-6 of the tallest's count as equal (islands alike up to
+    # rounding), so that rounding never reorders them: then by island number
+    height = np.round(size[:, 1] / max(float(size[:, 1].max()) * 1e-6, 1e-300))
+    order = np.lexsort((np.arange(k), -height))
     width = max(float(size[:, 0].max()), float(np.sqrt(((size[:, 0] + gap) * (size[:, 1] + gap)).sum())))
     out = np.zeros((k, 2))
     x = y = row_h = 0.0

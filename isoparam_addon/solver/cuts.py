@@ -34,6 +34,7 @@ _WORTH = np.log(1.5)  # a vertex whose faces are off by less than 1.5x in area n
 # edge long and the search stopped after two tries, Suzanne's symmetric Dirichlet 13.7;
 # with the two rings clear, 137 edges over three paths, 4.21, as for Suzanne alone)
 _CLEAR = 2
+_TIE = 1e-6  # distortions this close (relative) are equal
 
 
 def area_distortion(V: np.ndarray, F: np.ndarray, corner_uv: np.ndarray, face_island: np.ndarray, n: int):
@@ -100,7 +101,9 @@ def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
     live = (v_isl >= 0) & want[np.maximum(v_isl, 0)] & ~near & ~pinch & (score > _WORTH)
     best = np.full(len(want), -np.inf)
     np.maximum.at(best, v_isl[live], score[live])
-    hit = live & (score == best[np.maximum(v_isl, 0)])
+    # the lowest-numbered of the vertices within _TIE of the worst: on a symmetric island
+    # (a box's eight corners) rounding must not choose among equals
+    hit = live & (score >= best[np.maximum(v_isl, 0)] * (1.0 - _TIE))
     target = np.full(len(want), n, dtype=np.int64)
     np.minimum.at(target, v_isl[hit], np.flatnonzero(hit))
     target = target[islands]

@@ -281,24 +281,28 @@ def _basis(blocks, islands: Islands, drop: float = 1e-10) -> np.ndarray:
     not stay orthogonal); directions dependent *within* a block are dropped (set to zero
     on that island). Everything is BLAS-3 on large islands.
     """
-    kept: np.ndarray | None = None
-    for B in blocks:
-        B = B - islands.expand(islands.mean(B))
-        d0 = np.einsum("ijj->ij", islands.gram(B, B))
-        if kept is not None:
-            for _ in range(2):
-                B = B - islands.apply(kept, islands.gram(kept, B))
-        g = islands.gram(B, B)
-        d = np.einsum("ijj->ij", g)
-        # a remainder below 1e-8 of the column is mostly rounding: it would not stay orthogonal
-        alive = (d > _REMAINDER**2 * d0) & (d > 0)
-        s = np.where(alive, 1.0 / np.sqrt(np.where(alive, d, 1.0)), 0.0)
-        lam, U = np.linalg.eigh(s[:, :, None] * g * s[:, None, :])
-        ok = lam > drop * np.maximum(lam[:, -1:], 1e-300)
-        T = s[:, :, None] * U * np.where(ok, 1.0 / np.sqrt(np.where(ok, lam, 1.0)), 0.0)[:, None, :]
-        Q = islands.apply(B, T)
-        kept = Q if kept is None else np.hstack([kept, Q])
+    kept = _orthonormal_block(blocks[0], None, islands, drop)
+    for B in blocks[1:]:
+        kept = np.hstack([kept, _orthonormal_block(B, kept, islands, drop)])
     return kept
+
+
+def _orthonormal_block(B: np.ndarray, kept: np.ndarray | None, islands: Islands, drop: float) -> np.ndarray:
+    """One block of :func:`_basis`: centred, projected off ``kept`` (CGS2), orthonormalised."""
+    B = B - islands.expand(islands.mean(B))
+    d0 = np.einsum("ijj->ij", islands.gram(B, B))
+    if kept is not None:
+        for _ in range(2):
+            B = B - islands.apply(kept, islands.gram(kept, B))
+    g = islands.gram(B, B)
+    d = np.einsum("ijj->ij", g)
+    # a remainder below 1e-8 of the column is mostly rounding: it would not stay orthogonal
+    alive = (d > _REMAINDER**2 * d0) & (d > 0)
+    s = np.where(alive, 1.0 / np.sqrt(np.where(alive, d, 1.0)), 0.0)
+    lam, U = np.linalg.eigh(s[:, :, None] * g * s[:, None, :])
+    ok = lam > drop * np.maximum(lam[:, -1:], 1e-300)
+    T = s[:, :, None] * U * np.where(ok, 1.0 / np.sqrt(np.where(ok, lam, 1.0)), 0.0)[:, None, :]
+    return islands.apply(B, T)
 
 
 def _ritz(L, Q: np.ndarray, islands: Islands, p: int):
@@ -385,7 +389,7 @@ def spectral_embedding(
     """
     t0 = time.perf_counter()
     own_plan = plan is None
-    if own_plan:
+    if plan is None:
         A0 = L.tocoo()
         plan = plan_elimination(X, np.stack([A0.row, A0.col], axis=1), islands)
     pls = _PinnedLeastSquares(L, islands, plan)
@@ -418,7 +422,8 @@ def spectral_embedding(
         # step is not trusted (200k-vertex developable strips: steps 0.63 then 2e-5
         # "predicted" 6e-10 and stopped at an edge error of 4e-8; one more step: 6e-10)
         last = np.where(np.isfinite(change), change, 1.0)
-        rate = np.where(np.isfinite(change) & (step < change) & (last < _LINEAR), step / last, 1.0)
+        linear = np.isfinite(change) & (step < change) & (last < _LINEAR)  # (so last > step >= 0)
+        rate = np.where(linear, step / np.where(linear, last, 1.0), 1.0)
         predicted = step * rate
         change[live] = step[live]
         keep_old = islands.expand(done)[:, None]

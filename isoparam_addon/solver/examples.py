@@ -343,3 +343,45 @@ def box(k: int = 8):
     _, first, weld = np.unique(np.round(P * 1e9).astype(np.int64), axis=0, return_index=True, return_inverse=True)
     weld = weld.ravel()
     return P[first], weld[np.concatenate(Fs)], weld[np.concatenate(D)]
+
+
+def load_obj(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A Wavefront OBJ file as ``(V (n, 3) float64, F (m, 3) int64, seams (k, 2) int64)``.
+
+    Polygons are split into triangle fans. ``seams`` are the vertex pairs of the edges
+    across which the file's texture coordinates (``vt``) differ, i.e. the seams of its
+    UV map (none when it has no ``vt``). Lines are grouped by their number of corners
+    and parsed a group at a time.
+    """
+    from .mesh import HalfEdges
+
+    text = open(path, encoding="utf-8", errors="replace").read()
+    lines = text.splitlines()
+    vert = [ln.split()[1:4] for ln in lines if ln.startswith("v ")]
+    V = np.array(vert, dtype=np.float64).reshape(-1, 3)
+    face_lines = [ln.split()[1:] for ln in lines if ln.startswith("f ")]
+    counts = np.array([len(f) for f in face_lines], dtype=np.int64)
+    F_parts, T_parts, order = [], [], []
+    for k in np.unique(counts):  # one group per polygon size
+        rows = np.flatnonzero(counts == k)
+        tokens = [t.split("/") for r in rows for t in face_lines[r]]
+        v = np.array([int(t[0]) for t in tokens], dtype=np.int64).reshape(len(rows), k)
+        vt = np.array([int(t[1]) if len(t) > 1 and t[1] else 0 for t in tokens], dtype=np.int64).reshape(len(rows), k)
+        fan = np.stack([np.zeros(k - 2, dtype=np.int64), np.arange(1, k - 1), np.arange(2, k)], axis=1)
+        F_parts.append(v[:, fan].reshape(-1, 3))
+        T_parts.append(vt[:, fan].reshape(-1, 3))
+        order.append(np.repeat(rows, k - 2) * 64 + np.tile(np.arange(k - 2), len(rows)))
+    o = np.argsort(np.concatenate(order), kind="stable")  # the file's face order
+    F, T = np.concatenate(F_parts)[o], np.concatenate(T_parts)[o]
+    F = np.where(F > 0, F - 1, len(V) + F)  # 1-based, or negative from the end
+    seams = np.zeros((0, 2), dtype=np.int64)
+    if (T != 0).all():
+        he = HalfEdges(F, len(V))
+        h = np.flatnonzero(he.twin >= 0)
+        t = he.twin[h]
+        nxt = np.array([1, 2, 0])
+        flat_t = T.ravel()
+        # h runs a -> b, its twin b -> a: the texture corners must agree at a and at b
+        same = (flat_t[h] == flat_t[3 * (t // 3) + nxt[t % 3]]) & (flat_t[3 * (h // 3) + nxt[h % 3]] == flat_t[t])
+        seams = np.unique(he.edge_vertices[he.edge[h[~same]]], axis=0)
+    return V, F.astype(np.int64), seams
