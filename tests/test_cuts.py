@@ -156,7 +156,7 @@ def test_no_path_where_nothing_is_distorted_enough():
 def test_a_lone_seam_edge_is_not_where_a_path_starts():
     # a single interior seam edge opens nothing; a path ending there would be a floating
     # slit, a hole the next solve would have to cut open again (found in review)
-    from isoparam_addon.solver.mesh import build_topology
+    from isoparam_addon.solver.topology import build_topology
 
     V, F, diagonals = ex.box(6)
     r = parametrize(V, F, [[1, 2]], refine=100, inner_edges=diagonals, extra_cuts=4)

@@ -20,7 +20,7 @@ import pytest
 from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import parametrize
 from isoparam_addon.solver.align import canonical_turn
-from isoparam_addon.solver.blocks import Islands
+from isoparam_addon.solver.islands import Islands
 from tests.conftest import procrustes_error
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from isoparam_addon.solver import baselines, metrics, parametrize
 from isoparam_addon.solver import examples as ex
-from isoparam_addon.solver.blocks import Islands
+from isoparam_addon.solver.islands import Islands
 from isoparam_addon.solver.mesh import HalfEdges
 from isoparam_addon.solver.refine import _max_step, refine
 
@@ -104,20 +104,21 @@ def test_islands_are_refined_independently():
 def test_a_large_island_beside_small_ones_is_refined_as_it_would_be_alone(monkeypatch):
     # a large island (its own BLAS dot products) beside small ones (one bincount), and line
     # searches that go on for a few islands only (only their faces evaluated again)
-    from isoparam_addon.solver import refine
+    from isoparam_addon.solver.islands import Islands
 
     parts = (ex.peaks(41), ex.sphere_band(), ex.spherical_cap(10))
     V, F = _islands(*parts)
     searched = []
-    faces_in = refine._PerIsland.faces_in
+    members = Islands.members
 
     def spy(self, which):
-        f = faces_in(self, which)
-        assert np.array_equal(np.sort(f), np.flatnonzero(which[self.face]))  # the faces of those islands
-        searched.append(len(f))
+        f = members(self, which)
+        if not self.contiguous:  # the faces of those islands
+            assert np.array_equal(np.sort(f), np.flatnonzero(which[self.label]))
+            searched.append(len(f))
         return f
 
-    monkeypatch.setattr(refine._PerIsland, "faces_in", spy)
+    monkeypatch.setattr(Islands, "members", spy)
     both = parametrize(V, F, refine=100, pack=False)
     assert any(0 < k < len(F) / 2 for k in searched)  # the partial evaluation ran
     for i, (Vi, Fi) in enumerate(parts):
@@ -151,7 +152,7 @@ def test_a_slow_island_goes_on_alone_where_it_left_off(monkeypatch):
 
 
 def test_conformal_seed_is_a_similarity_on_a_developable_mesh():
-    from isoparam_addon.solver.blocks import Islands
+    from isoparam_addon.solver.islands import Islands
     from isoparam_addon.solver.refine import FaceFrames
     from isoparam_addon.solver.seeds import lscm
 
@@ -168,10 +169,10 @@ def test_conformal_seed_is_stationary_for_the_cauchy_riemann_energy_but_at_two_p
     zero."""
     import scipy.sparse as sp
 
-    from isoparam_addon.solver.blocks import Islands
-    from isoparam_addon.solver.mesh import build_topology
+    from isoparam_addon.solver.islands import Islands
     from isoparam_addon.solver.refine import FaceFrames
     from isoparam_addon.solver.seeds import lscm
+    from isoparam_addon.solver.topology import build_topology
 
     (Va, Fa), (Vb, Fb) = ex.peaks(15), ex.spherical_cap(8)
     V, F, topo = build_topology(np.vstack([Va, Vb + 3.0]), np.vstack([Fa, Fb + len(Va)]))
@@ -191,10 +192,10 @@ def test_conformal_seed_is_stationary_for_the_cauchy_riemann_energy_but_at_two_p
 
 
 def test_tutte_seed_never_folds():
-    from isoparam_addon.solver.blocks import Islands
-    from isoparam_addon.solver.mesh import build_topology
+    from isoparam_addon.solver.islands import Islands
     from isoparam_addon.solver.refine import FaceFrames
     from isoparam_addon.solver.seeds import signed_double_areas, tutte
+    from isoparam_addon.solver.topology import build_topology
 
     for V, F in (ex.sphere_band(), ex.s_surface_random(600, 0)[:2]):
         V, F, topo = build_topology(V, F)
@@ -225,9 +226,9 @@ def test_coincident_boundary_vertices_do_not_collapse_the_tutte_seed():
     # found by fuzzing: the cut put the three coincident vertices on the boundary, the
     # chord-length circle put them on one point, and the faces between them had no area;
     # no seed was left, the island was not refined, and 8 of its 20 triangles stayed flipped
-    from isoparam_addon.solver.mesh import build_topology
     from isoparam_addon.solver.refine import FaceFrames
     from isoparam_addon.solver.seeds import signed_double_areas, tutte
+    from isoparam_addon.solver.topology import build_topology
 
     V, F = _icosahedron_with_a_face_collapsed()
     V, F, topo = build_topology(V, F)
@@ -259,11 +260,11 @@ def test_an_island_the_refinement_cannot_open_is_reported():
 def test_seeds_solved_in_a_fill_reducing_order_are_the_same_seeds():
     """lscm and tutte eliminate in Step 3's nested-dissection order when given one: the
     same layout as SuperLU's own COLAMD order, on the flagged islands only."""
-    from isoparam_addon.solver.blocks import Islands
     from isoparam_addon.solver.embed import plan_elimination
-    from isoparam_addon.solver.mesh import build_topology
+    from isoparam_addon.solver.islands import Islands
     from isoparam_addon.solver.refine import FaceFrames
     from isoparam_addon.solver.seeds import lscm, tutte
+    from isoparam_addon.solver.topology import build_topology
 
     parts = [ex.peaks(25), ex.sphere_band(), ex.s_surface_random(500, 2)[:2]]
     offset = np.cumsum([0] + [len(V) for V, _ in parts])
@@ -510,7 +511,7 @@ def test_an_island_whose_four_step_layout_folds_is_unfolded_then_moved_onto_its_
 
 
 def test_each_island_moves_onto_its_pins_with_its_own_step():
-    from isoparam_addon.solver.blocks import Islands
+    from isoparam_addon.solver.islands import Islands
     from isoparam_addon.solver.pins import refine_to_pins
     from isoparam_addon.solver.refine import Refinement
 
@@ -540,26 +541,13 @@ def test_each_island_moves_onto_its_pins_with_its_own_step():
     assert np.abs(info.uv[25:] - target[25:]).max() < 1e-9
 
 
-def test_per_island_values_spread_over_the_rows_of_their_islands():
-    from isoparam_addon.solver.blocks import Islands
-    from isoparam_addon.solver.refine import _PerIsland
-
-    label = np.repeat([0, 2, 3], [3, 5, 1])  # island 1 has no rows
-    faces = np.array([[0, 1, 2], [3, 4, 5], [5, 6, 7]])
-    each = _PerIsland(Islands(label, 4), faces)
-    for per_island in (np.array([1.5, -2.0, 3.0, 4.0]), np.array([True, False, False, True])):
-        spread = each.rows(per_island)
-        assert spread.shape == (9, 2) and spread.dtype == per_island.dtype
-        np.testing.assert_array_equal(spread, np.broadcast_to(per_island[label][:, None], (9, 2)))
-
-
 def test_the_energy_reported_is_the_layouts_after_a_restarted_island_is_fitted_to_its_pins():
     # an island whose four-step layout folds is refined without its pins, then scaled onto
     # them; when no stage follows, the energy reported was the one from before that scale
-    from isoparam_addon.solver.blocks import Islands
-    from isoparam_addon.solver.mesh import build_topology
+    from isoparam_addon.solver.islands import Islands
     from isoparam_addon.solver.pins import refine_to_pins
     from isoparam_addon.solver.refine import FaceFrames, refine
+    from isoparam_addon.solver.topology import build_topology
 
     V, F = ex.peaks(9)
     seed = parametrize(V, F, refine=0, pack=False)

@@ -155,8 +155,8 @@ def test_pinned_least_squares_match_dense_algebra(n_islands):
     # least-squares basis, on islands whose L has the sparsity of the mesh and no structure
     import scipy.sparse as sp
 
-    from isoparam_addon.solver.blocks import Islands
     from isoparam_addon.solver.embed import _PinnedLeastSquares, plan_elimination
+    from isoparam_addon.solver.islands import Islands
 
     rng = np.random.default_rng(11)
     Vs, Fs, off = [], [], 0
@@ -205,8 +205,8 @@ def test_a_null_space_of_more_than_two_dimensions_gives_a_null_pair_and_stops(gr
     # to rounding there, so a careless solve also returns vectors outside it).
     import scipy.sparse as sp
 
-    from isoparam_addon.solver.blocks import Islands
     from isoparam_addon.solver.embed import spectral_embedding
+    from isoparam_addon.solver.islands import Islands
 
     V, F = ex.peaks(grid)
     n = len(V)

@@ -17,16 +17,18 @@ import numpy as np
 
 from . import metrics
 from ._memory import retained
-from .align import fit_rotation_scale, orient, pack_islands, place, signed_areas
-from .blocks import Islands
+from .align import fit_rotation_scale, orient, pack_islands, place
 from .cuts import area_distortion, next_paths
 from .embed import plan_elimination, spectral_embedding
 from .errors import InvalidMeshError, IsoparamError, SolverError, counted
+from .geometry import signed_areas
+from .islands import Islands
 from .local import local_flattening
-from .mesh import Topology, build_topology, unit_of
+from .mesh import unit_of
 from .pins import fit_to_pins, pin_targets, pins_spread, refine_to_pins, similarity
 from .refine import quadratic_proxy
 from .refine import refine as _refine
+from .topology import Topology, build_topology
 from .weights import reconstruction_weights
 
 __all__ = [

@@ -17,9 +17,10 @@ from scipy.sparse import csgraph
 from scipy.sparse.linalg import splu
 
 from .align import fit_rotation_scale
-from .blocks import Islands
+from .islands import Islands
 from .local import local_flattening
-from .mesh import HalfEdges, build_topology, unique_edges
+from .mesh import HalfEdges, unique_edges
+from .topology import build_topology
 from .weights import reconstruction_weights
 
 __all__ = ["isomap", "floater", "dense_paper", "reconstruction_matrix"]

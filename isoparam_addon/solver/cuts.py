@@ -1,7 +1,7 @@
 """Beyond the paper: longer cuts for islands that had to be cut automatically.
 
 A closed island, or one with handles or holes, is opened into a disk by the shortest cut
-that does it (:func:`mesh._cut_graph`). That cut only fixes the topology: a closed
+that does it (:func:`.cutgraph.cut_to_disks`). That cut only fixes the topology: a closed
 surface opened along one short path is flattened with a few regions squeezed and others
 blown up (Suzanne with no seams: the layout's area is off by a factor ``e^2 ~ 7`` on
 average). Gu, Gortler and Hoppe ("Geometry images", SIGGRAPH 2002, Section 3.2) grow the
@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .mesh import HalfEdges, _seam_mask
+from .mesh import HalfEdges, edge_mask
 
 __all__ = ["area_distortion", "next_paths"]
 
@@ -78,11 +78,11 @@ def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
     e_isl = np.empty(he.n_edges, dtype=np.int64)
     e_isl[he.edge] = np.repeat(face_island, 3)
     in_isl = want[e_isl]
-    cut = _seam_mask(he, n, seams) | (he.edge_count == 1)
+    cut = edge_mask(he, n, seams) | (he.edge_count == 1)
     # a lone interior seam edge (no other cut at either end) opens nothing: not a boundary
     degree = np.bincount(ev[cut].ravel(), minlength=n)
     cut &= ~((he.edge_count == 2) & (degree[ev[:, 0]] == 1) & (degree[ev[:, 1]] == 1))
-    diag = _seam_mask(he, n, inner, "inner_edges")
+    diag = edge_mask(he, n, inner, "inner_edges")
     on_cut = np.zeros(n, dtype=bool)
     on_cut[ev[cut].ravel()] = True
     # vertex score: mean distortion of its faces; boundary vertices are where paths start

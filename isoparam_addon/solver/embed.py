@@ -49,7 +49,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ._parallel import solve_columns
-from .blocks import Islands
+from .islands import Islands
 from .ordering import nested_dissection
 
 __all__ = ["Embedding", "Plan", "choose_pins", "plan_elimination", "spectral_embedding"]

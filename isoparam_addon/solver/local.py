@@ -187,7 +187,7 @@ def local_flattening(X: np.ndarray, faces: np.ndarray, fan: Fans) -> list[Patch]
     faces : (m, 3) int64
         Oriented faces.
     fan : Fans
-        Ordered fans from :func:`mesh.fans`.
+        Ordered fans from :func:`.topology.fans`.
 
     Returns
     -------

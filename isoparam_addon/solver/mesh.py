@@ -1,7 +1,6 @@
-"""Mesh validation and topology: edges, seams, islands, orientation, cuts to disks, fans.
+"""The mesh as arrays: validation, half-edges, and splitting vertices along cut edges.
 
-Everything here works on whole arrays; the only Python loops run over islands that need
-cutting or over the levels of a tree, never over vertices, faces or corners.
+Everything here works on whole arrays; no loop runs over vertices, faces or corners.
 
 Vocabulary
 ----------
@@ -14,7 +13,7 @@ wedge
     split vertex per side.
 island
     A set of faces connected across interior, uncut edges. Every island that reaches the
-    solver is an oriented topological disk.
+    solver is an oriented topological disk (see :mod:`.topology`).
 """
 
 from __future__ import annotations
@@ -24,16 +23,22 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
-from scipy.sparse.linalg import splu
 
 from .errors import InvalidMeshError, offenders
+from .geometry import next_corner, rotate_faces
 
-__all__ = ["Topology", "Fans", "validate", "build_topology", "fans", "unique_edges"]
-
-_NEXT = np.array([1, 2, 0])
-
-
-# --------------------------------------------------------------------------- validation
+__all__ = [
+    "Fans",
+    "HalfEdges",
+    "check",
+    "edge_mask",
+    "face_components",
+    "fans",
+    "orientation",
+    "split",
+    "unique_edges",
+    "unit_of",
+]
 
 
 def unit_of(V: np.ndarray) -> float:
@@ -44,15 +49,6 @@ def unit_of(V: np.ndarray) -> float:
     if not (np.isfinite(size) and size > 0):
         return 1.0
     return float(2.0 ** np.round(np.log2(size)))
-
-
-def validate(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
-    """Check a triangle mesh and return float64 / int64 copies.
-
-    See :func:`_check`, which also returns the half-edges and wedges it built.
-    """
-    V, F, _, _ = _check(vertices, faces)
-    return V, F
 
 
 def _array(x, name: str, dtype) -> np.ndarray:
@@ -67,7 +63,7 @@ def _array(x, name: str, dtype) -> np.ndarray:
         raise InvalidMeshError("shape", f"{name} must be an array of numbers: {e}") from None
 
 
-def _check(vertices, faces, split_bowties: bool = False):
+def check(vertices, faces, split_bowties: bool = False):
     """Check a triangle mesh and return float64 / int64 copies.
 
     Parameters
@@ -147,9 +143,6 @@ def _check(vertices, faces, split_bowties: bool = False):
     return V, F, edges, fan
 
 
-# --------------------------------------------------------------------------- half-edges
-
-
 class HalfEdges:
     """Half-edge adjacency of a triangle soup.
 
@@ -172,7 +165,7 @@ class HalfEdges:
         # on Windows makes arange, cumsum and asarray of Python ints int32)
         F = np.asarray(F, dtype=np.int64)
         a = F.ravel()
-        b = _rotate(F).ravel()
+        b = rotate_faces(F).ravel()
         lo, hi = np.minimum(a, b), np.maximum(a, b)
         key = lo * np.int64(n) + hi
         order = np.argsort(key, kind="stable")
@@ -205,7 +198,7 @@ class HalfEdges:
     def consistent(self, F: np.ndarray) -> bool:
         """Whether every interior edge is traversed in opposite directions by its faces."""
         h = self.twin >= 0
-        return bool(np.all(F.ravel()[self.twin[h]] == _rotate(F).ravel()[h]))
+        return bool(np.all(F.ravel()[self.twin[h]] == rotate_faces(F).ravel()[h]))
 
 
 def _sort_rows(F: np.ndarray) -> np.ndarray:
@@ -218,19 +211,6 @@ def _sort_rows(F: np.ndarray) -> np.ndarray:
     top = np.maximum(lo, c)
     np.minimum(hi, top, out=out[:, 1])
     np.maximum(hi, top, out=out[:, 2])
-    return out
-
-
-def _rotate(F: np.ndarray, back: bool = False) -> np.ndarray:
-    """``F[:, [1, 2, 0]]`` (each corner's next), or ``F[:, [2, 0, 1]]`` with ``back``, by
-    column copies: 3x faster than fancy indexing."""
-    out = np.empty_like(F)
-    if back:
-        out[:, 0] = F[:, 2]
-        out[:, 1:] = F[:, :2]
-    else:
-        out[:, :2] = F[:, 1:]
-        out[:, 2] = F[:, 0]
     return out
 
 
@@ -247,8 +227,8 @@ def _corner_partner(F: np.ndarray, twin: np.ndarray, h: np.ndarray):
     Works whether or not the two faces are consistently oriented.
     """
     t = twin[h]
-    f_next = 3 * (h // 3) + _NEXT[h % 3]
-    t_next = 3 * (t // 3) + _NEXT[t % 3]
+    f_next = next_corner(h)
+    t_next = next_corner(t)
     flat = F.ravel()
     same = flat[t] == flat[h]  # the twin starts where h starts: opposite orientation
     d1 = np.where(same, t, t_next)
@@ -268,7 +248,7 @@ def _wedge_labels(F: np.ndarray, he: HalfEdges, cut: np.ndarray) -> np.ndarray:
     return labels.astype(np.int64)
 
 
-def _face_components(m: int, he: HalfEdges, cut: np.ndarray) -> np.ndarray:
+def face_components(m: int, he: HalfEdges, cut: np.ndarray) -> np.ndarray:
     """Island label of every face: faces joined across interior, uncut edges."""
     h = np.flatnonzero((he.twin > np.arange(3 * m)) & ~cut[he.edge])
     graph = sp.coo_matrix((np.ones(len(h), dtype=np.int8), (h // 3, he.twin[h] // 3)), shape=(m, m))
@@ -276,7 +256,7 @@ def _face_components(m: int, he: HalfEdges, cut: np.ndarray) -> np.ndarray:
     return labels.astype(np.int64)
 
 
-def _split(F: np.ndarray, n: int, cut: np.ndarray, he: HalfEdges | None = None):
+def split(F: np.ndarray, n: int, cut: np.ndarray, he: HalfEdges | None = None):
     """Split vertices along cut edges (and at every wedge).
 
     Returns ``(Fs, vertex_of)``: ``Fs`` (m, 3) indexes split vertices, numbered by
@@ -296,64 +276,7 @@ def _split(F: np.ndarray, n: int, cut: np.ndarray, he: HalfEdges | None = None):
     return Fs, vertex_of
 
 
-# --------------------------------------------------------------------------- topology
-
-
-@dataclass
-class Topology:
-    """The mesh as the solver sees it: split along seams and cuts, oriented per island.
-
-    Split vertices are numbered island by island (each island a contiguous range).
-
-    Attributes
-    ----------
-    faces : (m, 3) int64
-        Split-vertex indices, each island consistently oriented (counter-clockwise in the
-        final layout).
-    he : HalfEdges
-        Half-edges of ``faces``.
-    fans : Fans
-        Ordered 1-rings of ``faces``.
-    corner_vertex : (m, 3) int64
-        Split vertex of each input corner, in the input corner order.
-    vertex_of : (ns,) int64
-        Input vertex of each split vertex.
-    face_island : (m,) int64
-        Island of each face, numbered by lowest face index.
-    vertex_island : (ns,) int64
-    n_islands : int
-    flipped : (m,) bool
-        Faces whose corner order was reversed to orient their island.
-    cut_edges : (k, 2) int64
-        Input-vertex pairs of the edges cut automatically to make islands disks.
-    cut_islands : (j,) int64
-        Islands that were not disks and got cut.
-    closed_islands, handle_islands, multi_boundary_islands, nonorientable_islands : (j,) int64
-        Why they were cut (an island can appear in several).
-    """
-
-    faces: np.ndarray
-    he: HalfEdges
-    fans: Fans
-    corner_vertex: np.ndarray
-    vertex_of: np.ndarray
-    face_island: np.ndarray
-    vertex_island: np.ndarray
-    n_islands: int
-    flipped: np.ndarray
-    cut_edges: np.ndarray
-    cut_islands: np.ndarray
-    closed_islands: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    handle_islands: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    multi_boundary_islands: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    nonorientable_islands: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-
-    @property
-    def n_vertices(self) -> int:
-        return len(self.vertex_of)
-
-
-def _seam_mask(he: HalfEdges, n: int, seams, what: str = "seams") -> np.ndarray:
+def edge_mask(he: HalfEdges, n: int, seams, what: str = "seams") -> np.ndarray:
     """Boolean per undirected edge: is it one of the vertex pairs ``seams`` (named
     ``what`` in errors). Pairs that are no edge are ignored."""
     mask = np.zeros(he.n_edges, dtype=bool)
@@ -377,11 +300,7 @@ def _seam_mask(he: HalfEdges, n: int, seams, what: str = "seams") -> np.ndarray:
     return mask
 
 
-def _face_areas(X: np.ndarray, F: np.ndarray) -> np.ndarray:
-    return 0.5 * np.linalg.norm(np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]), axis=1)
-
-
-def _orientation(F, he, face_island, n_islands, area, tree_only=None):
+def orientation(F, he, face_island, n_islands, area, tree_only=None):
     """Choose a consistent orientation per island.
 
     The double cover trick: node ``f`` is face f as given, node ``f + m`` is face f
@@ -414,396 +333,6 @@ def _orientation(F, he, face_island, n_islands, area, tree_only=None):
     swap = kept < 0.5 * total - 1e-300
     flip ^= swap[face_island]
     return flip, orientable
-
-
-def _island_counts(Fs, ns, he, face_island, n_islands):
-    """Euler characteristic and number of boundary loops of each island."""
-    v_isl = np.full(ns, -1, dtype=np.int64)
-    v_isl[Fs.ravel()] = np.repeat(face_island, 3)
-    nv = np.bincount(v_isl[v_isl >= 0], minlength=n_islands)
-    nf = np.bincount(face_island, minlength=n_islands)
-    e_isl = np.empty(he.n_edges, dtype=np.int64)
-    e_isl[he.edge] = np.repeat(face_island, 3)
-    ne = np.bincount(e_isl, minlength=n_islands)
-    chi = nv - ne + nf
-    bnd = np.flatnonzero(he.edge_count == 1)
-    ev = he.edge_vertices[bnd]
-    graph = sp.coo_matrix((np.ones(len(bnd), dtype=np.int8), (ev[:, 0], ev[:, 1])), shape=(ns, ns))
-    _, lab = csgraph.connected_components(graph, directed=False)
-    on_bnd = np.zeros(ns, dtype=bool)
-    on_bnd[ev.ravel()] = True
-    loops = np.unique(lab[on_bnd])
-    loop_island = np.full(lab.max() + 1, -1, dtype=np.int64)
-    loop_island[lab[on_bnd]] = v_isl[on_bnd]
-    n_loops = np.bincount(loop_island[loops], minlength=n_islands)
-    return chi, n_loops
-
-
-def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inner_edges=None, avoid=None):
-    """Validate, split along seams, find islands, orient them, cut non-disks into disks.
-
-    Parameters
-    ----------
-    vertices : (n, 3) array_like of float
-    faces : (m, 3) array_like of int
-    seams : (k, 2) int, optional
-        Vertex pairs of edges to cut along (Blender's UV seams).
-    split_bowties : bool
-        Give a vertex whose faces form several fans one copy per fan (faces that share
-        only a vertex end up in different islands, as in Blender's unwrap) instead of
-        raising ``InvalidMeshError``.
-    inner_edges : (k, 2) int, optional
-        Vertex pairs of edges that automatic cuts avoid where they can (the diagonals of
-        triangulated polygons); pairs that are not edges are ignored.
-    avoid : (k,) int, optional
-        Vertices not to root a closed island's cut at where another can be (pinned
-        vertices: every loop of the cut passes through the root, which splits it); ids
-        out of range are ignored.
-
-    Returns
-    -------
-    V : (n, 3) float64, F : (m, 3) int64
-        Validated copies of the input.
-    topo : Topology
-
-    The common case (no seams, consistently oriented disks) reuses the half-edges built
-    for validation and renumbers nothing.
-    """
-    V, F, he0, fan0 = _check(vertices, faces, split_bowties)
-    n, m = len(V), len(F)
-    seam = _seam_mask(he0, n, seams)
-    inner = _seam_mask(he0, n, inner_edges, "inner_edges")
-    if seam.any() or (split_bowties and fan0 is None):
-        Fs, vertex_of = _split(F, n, seam, he0)
-        he = HalfEdges(Fs, len(vertex_of))
-    else:  # validation guarantees one wedge per vertex: split vertices are the used ones
-        used = np.zeros(n, dtype=bool)
-        used[F.ravel()] = True
-        if used.all():
-            Fs, vertex_of, he = F, np.arange(n, dtype=np.int64), he0
-        else:
-            vertex_of = np.flatnonzero(used)
-            rank = np.cumsum(used, dtype=np.int64) - 1
-            Fs, he = rank[F], he0.relabel(rank)
-    ns = len(vertex_of)
-    face_island = _face_components(m, he, np.zeros(he.n_edges, dtype=bool))
-    n_islands = int(face_island.max()) + 1
-    Vu = V / unit_of(V)  # areas and lengths below only compare with each other
-    area = None  # only for orienting
-    # the fans of validation were walked because F was consistently oriented
-    if (Fs is F and fan0 is not None) or he.consistent(Fs):
-        flip, orientable = np.zeros(m, dtype=bool), np.ones(n_islands, dtype=bool)
-    else:  # pragma: no branch
-        area = _face_areas(Vu, F)
-        flip, orientable = _orientation(Fs, he, face_island, n_islands, area)
-    chi, n_loops = _island_counts(Fs, ns, he, face_island, n_islands)
-    disk = orientable & (chi == 1) & (n_loops == 1)
-    empty = np.zeros(0, dtype=np.int64)
-    cut_edges, cut_islands = np.zeros((0, 2), dtype=np.int64), empty
-    reasons = dict(closed=empty, handle=empty, multi=empty, nonorientable=empty)
-    if not disk.all():
-        cut_islands = np.flatnonzero(~disk)
-        reasons = dict(
-            closed=np.flatnonzero(~disk & (n_loops == 0)),
-            handle=np.flatnonzero(~disk & orientable & (2 - chi - n_loops > 0)),
-            multi=np.flatnonzero(~disk & (n_loops > 1)),
-            nonorientable=np.flatnonzero(~orientable),
-        )
-        keep = np.zeros(n, dtype=bool)
-        if avoid is not None:
-            ids = np.asarray(avoid, dtype=np.int64).ravel()
-            keep[ids[(ids >= 0) & (ids < n)]] = True
-        Fs, vertex_of, flip, cut_edges = _cut_islands(
-            Vu, Fs, vertex_of, he, he0, face_island, ~disk, area, inner, flip, keep
-        )
-        ns = len(vertex_of)
-        he = None  # rebuilt below, once the faces are numbered and oriented
-    # number the split vertices island by island
-    vertex_island = np.empty(ns, dtype=np.int64)
-    vertex_island[Fs.ravel()] = np.repeat(face_island, 3)
-    if np.any(np.diff(vertex_island) < 0):
-        order = np.argsort(vertex_island, kind="stable")
-        rank = np.empty_like(order)
-        rank[order] = np.arange(ns)
-        Fs, vertex_of, vertex_island = rank[Fs], vertex_of[order], vertex_island[order]
-        he = None if he is None else he.relabel(rank)
-    oriented = np.where(flip[:, None], Fs[:, ::-1], Fs) if flip.any() else Fs
-    he_oriented = he if he is not None and oriented is Fs else HalfEdges(oriented, ns)
-    if cut_islands.size:
-        chi, n_loops = _island_counts(oriented, ns, he_oriented, face_island, n_islands)
-        still = np.flatnonzero((chi != 1) | (n_loops != 1))
-        if still.size:  # pragma: no cover - a bug guard, the cut graph makes disks
-            raise RuntimeError(f"cutting islands {still.tolist()} did not give disks")
-    unchanged = fan0 is not None and oriented is F
-    fan = fan0 if unchanged else fans(oriented, he_oriented.twin, ns)
-    return (
-        V,
-        F,
-        Topology(
-            faces=oriented,
-            he=he_oriented,
-            fans=fan,
-            corner_vertex=Fs,
-            vertex_of=vertex_of,
-            face_island=face_island,
-            vertex_island=vertex_island,
-            n_islands=n_islands,
-            flipped=flip,
-            cut_edges=cut_edges,
-            cut_islands=cut_islands,
-            closed_islands=reasons["closed"],
-            handle_islands=reasons["handle"],
-            multi_boundary_islands=reasons["multi"],
-            nonorientable_islands=reasons["nonorientable"],
-        ),
-    )
-
-
-# --------------------------------------------------------------------------- cutting to disks
-
-
-def _cut_islands(Vu, Fs, vertex_of, he, he0, face_island, todo, area, inner, flip, keep):
-    """Cut the islands in ``todo`` into disks, working on their faces alone.
-
-    The cut graph, the orientation along it and the split run on the sub-mesh of the
-    faces to cut (often a few islands of many); the other islands keep their vertices.
-    Split vertices keep the order of :func:`_split` on the whole mesh: by old split
-    vertex, then by first corner, both increasing in the sub-mesh's numbering. Lengths
-    are compared within the sub-mesh only, so the disks beside an island never break a
-    tie between two of its equally short cuts.
-
-    Returns ``(Fs, vertex_of, flip, cut_edges)`` for the whole mesh; ``cut_edges`` are
-    input-vertex pairs, sorted like the undirected edges they were.
-    """
-    ns, m = len(vertex_of), len(Fs)
-    sub = np.flatnonzero(todo[face_island])
-    whole = len(sub) == m
-    used = np.zeros(ns, dtype=bool)
-    used[Fs[sub].ravel()] = True
-    sv = np.arange(ns) if whole else np.flatnonzero(used)
-    rank = np.cumsum(used, dtype=np.int64) - 1
-    Fsub = Fs if whole else rank[Fs[sub]]
-    hsub = he if whole else HalfEdges(Fsub, len(sv))
-    isl_sub = face_island[sub]
-    keys = np.flatnonzero(inner)
-    inner_sub = np.zeros(hsub.n_edges, dtype=bool)
-    if keys.size:  # the same edges over the sub-mesh's vertices
-        n = len(Vu)
-        ev0 = he0.edge_vertices[keys]
-        ev = np.sort(vertex_of[sv[hsub.edge_vertices]], axis=1)
-        inner_sub = np.isin(ev[:, 0] * np.int64(n) + ev[:, 1], ev0[:, 0] * np.int64(n) + ev0[:, 1])
-    n_islands = len(todo)
-    X = Vu[vertex_of[sv]]
-    cut = _cut_graph(X, Fsub, hsub, isl_sub, todo, inner_sub, keep[vertex_of[sv]])
-    area = _face_areas(X, Fsub) if area is None else area[sub]
-    flip = flip.copy()
-    flip[sub] = _orient_cut(Fsub, hsub, isl_sub, n_islands, area, cut, flip[sub], todo)
-    F2, of2 = _split(Fsub, len(sv), cut, hsub)
-    cut_edges = np.sort(vertex_of[sv[hsub.edge_vertices[cut]]], axis=1)
-    if whole:
-        return F2, vertex_of[of2], flip, cut_edges
-    keep = np.flatnonzero(~used)  # the other islands' vertices, first and in order
-    new_id = np.empty(ns, dtype=np.int64)
-    new_id[keep] = np.arange(len(keep))
-    out = new_id[Fs]
-    out[sub] = F2 + len(keep)
-    return out, np.concatenate([vertex_of[keep], vertex_of[sv[of2]]]), flip, cut_edges
-
-
-def _two_core(ns: int, edges: np.ndarray) -> np.ndarray:
-    """Which edges belong to the 2-core of a graph (what pruning degree-1 vertices leaves).
-
-    A spanning forest is rooted at a virtual vertex; a tree edge survives iff both sides
-    of it hold an endpoint of a non-tree edge, and every non-tree edge survives. Subtree
-    sums come from one sparse unit-triangular solve in breadth-first order, so no loop
-    runs over vertices.
-
-    Parameters
-    ----------
-    ns : int
-        Number of vertices.
-    edges : (k, 2) int64
-        Distinct undirected edges.
-
-    Returns
-    -------
-    (k,) bool
-    """
-    k = len(edges)
-    if k == 0:
-        return np.zeros(0, dtype=bool)
-    r = ns  # the virtual root
-    a, b = edges[:, 0], edges[:, 1]
-    graph = sp.coo_matrix((np.ones(k), (a, b)), shape=(ns + 1, ns + 1)).tocsr()
-    graph = graph + graph.T
-    involved = np.zeros(ns + 1, dtype=bool)
-    involved[edges.ravel()] = True
-    _, comp = csgraph.connected_components(graph, directed=False)
-    members = np.flatnonzero(involved)
-    roots = members[np.unique(comp[members], return_index=True)[1]]
-    link = sp.coo_matrix((np.ones(len(roots)), (np.full(len(roots), r), roots)), shape=(ns + 1, ns + 1))
-    order, pred = csgraph.breadth_first_order(
-        (graph + link + link.T).tocsr(), r, directed=False, return_predecessors=True
-    )
-    tree_a = pred[a] == b
-    tree_b = pred[b] == a
-    is_tree = tree_a | tree_b
-    child = np.where(tree_a, a, b)
-    ends = np.bincount(edges[~is_tree].ravel(), minlength=ns + 1).astype(np.float64)
-    # subtree sums s solve (I - C) s = ends, C[parent, child] = 1: upper triangular in BFS order
-    pos = np.empty(ns + 1, dtype=np.int64)
-    pos[order] = np.arange(len(order))
-    nn = len(order)
-    kids = order[1:]
-    U = sp.coo_matrix(
-        (
-            np.concatenate([np.ones(nn), -np.ones(nn - 1)]),
-            (np.concatenate([np.arange(nn), pos[pred[kids]]]), np.concatenate([np.arange(nn), pos[kids]])),
-        ),
-        shape=(nn, nn),
-    ).tocsc()
-    sub = np.zeros(ns + 1)
-    sub[order] = splu(U, permc_spec="NATURAL", diag_pivot_thresh=0.0).solve(ends[order])
-    comp_total = np.zeros(comp.max() + 1)
-    comp_total[comp[roots]] = sub[roots]
-    inside = sub[child]
-    outside = comp_total[comp[child]] - inside
-    return ~is_tree | ((inside > 0.5) & (outside > 0.5))
-
-
-def _cut_graph(X, Fs, he, face_island, todo, inner, keep):
-    """Edges to cut so that every island in ``todo`` becomes a topological disk.
-
-    Tree-cotree with shortest paths, after Erickson & Whittlesey (2005), "Greedy optimal
-    homotopy and homology generators":
-
-    1. T: a shortest-path forest grown from every boundary vertex of the island (from
-       one far-away root if it is closed);
-    2. D: a maximum spanning tree of the dual graph over the edges not in T, weighted by
-       the length of the loop an edge closes through T;
-    3. the faces glued along D form a disk bounded by every edge D does not cross;
-       zipping back dangling edges leaves the 2-core of those edges: the boundary plus
-       the short loops (one per handle) and paths (one per extra boundary loop) to cut.
-
-    A closed island of genus 0 has an empty cut graph; it is cut along the shortest path
-    from the root to the vertex farthest from it, at least two edges long.
-
-    Edges flagged ``inner`` (polygon diagonals) cost more than any path without them in
-    T and in the genus-0 path, and join D first, so they are cut only when nothing else
-    opens the island. A closed island's root is a vertex not flagged in ``keep`` (ns,)
-    bool if it has one (every loop of its cut graph passes through the root).
-
-    Returns a boolean mask over the undirected edges of ``he``.
-    """
-    ns = len(X)
-    m = len(Fs)
-    ev = he.edge_vertices
-    length = np.linalg.norm(X[ev[:, 0]] - X[ev[:, 1]], axis=1)
-    tiny = 1e-12 * max(float(length.max()), 1e-300)
-    w = length + tiny  # csgraph ignores zero weights
-    w[inner] += w.sum()  # longer than any simple path of other edges
-    graph = sp.coo_matrix((w, (ev[:, 0], ev[:, 1])), shape=(ns, ns)).tocsr()
-    e_isl = np.empty(he.n_edges, dtype=np.int64)
-    e_isl[he.edge] = np.repeat(face_island, 3)
-    v_isl = np.full(ns, -1, dtype=np.int64)
-    v_isl[Fs.ravel()] = np.repeat(face_island, 3)
-    boundary_edge = he.edge_count == 1
-    on_bnd = np.zeros(ns, dtype=bool)
-    on_bnd[ev[boundary_edge].ravel()] = True
-    sources = np.flatnonzero(on_bnd & todo[v_isl])
-    closed = np.flatnonzero(todo & (np.bincount(e_isl[boundary_edge], minlength=len(todo)) == 0))
-    roots = np.zeros(0, dtype=np.int64)
-    if closed.size:
-        first_v = np.full(len(todo), ns, dtype=np.int64)
-        np.minimum.at(first_v, v_isl[v_isl >= 0], np.flatnonzero(v_isl >= 0))
-        d0 = csgraph.dijkstra(graph, directed=False, indices=first_v[closed], min_only=True)
-        far = np.where(np.isfinite(d0), d0, -1.0)
-        far = np.where(keep & (far >= 0), -0.5, far)  # vertices to keep whole root it only if nothing else can
-        roots = np.full(len(todo), -1, dtype=np.int64)
-        best = np.full(len(todo), -np.inf)
-        np.maximum.at(best, v_isl[v_isl >= 0], far[v_isl >= 0])
-        hit = (far == best[np.maximum(v_isl, 0)]) & (v_isl >= 0) & np.isin(v_isl, closed)
-        cand = np.where(hit, np.arange(ns), ns)
-        root_of = np.full(len(todo), ns, dtype=np.int64)
-        np.minimum.at(root_of, v_isl[v_isl >= 0], cand[v_isl >= 0])
-        roots = root_of[closed]
-    dist, pred, _ = csgraph.dijkstra(
-        graph, directed=False, indices=np.concatenate([sources, roots]), min_only=True, return_predecessors=True
-    )
-    # T: the edge from every reached non-source vertex to its predecessor
-    child = np.flatnonzero(pred >= 0)
-    tkey = np.sort(np.minimum(child, pred[child]) * np.int64(ns) + np.maximum(child, pred[child]))
-    ekey = ev[:, 0] * np.int64(ns) + ev[:, 1]
-    in_T = np.zeros(he.n_edges, dtype=bool)
-    in_T[np.searchsorted(ekey, tkey)] = True
-    # D: maximum spanning tree of the dual over interior edges outside T
-    h = np.flatnonzero((he.twin > np.arange(3 * m)) & todo[face_island[np.arange(3 * m) // 3]])
-    h = h[~in_T[he.edge[h]]]
-    e = he.edge[h]
-    loop = (
-        np.where(np.isfinite(dist[ev[e, 0]]), dist[ev[e, 0]], 0)
-        + np.where(np.isfinite(dist[ev[e, 1]]), dist[ev[e, 1]], 0)
-        + length[e]
-    )
-    weight = (loop.max(initial=0.0) - loop) + tiny + 1e-300  # minimum of this = maximum loop
-    weight[inner[e]] = 0.5 * tiny + 1e-300  # below every other: diagonals are crossed, not cut
-    dual = sp.coo_matrix((weight, (h // 3, he.twin[h] // 3)), shape=(m, m)).tocsr()
-    tree = csgraph.minimum_spanning_tree(dual).tocoo()
-    # int64 before the product: scipy's rows are int32, and numpy 1.26 (Blender's) keeps
-    # int32 * np.int64(m) in int32 when m fits; past 46,341 faces the keys wrapped around
-    r, c = tree.row.astype(np.int64), tree.col.astype(np.int64)
-    fkey = np.sort(np.minimum(r, c) * m + np.maximum(r, c))
-    f, g = h // 3, he.twin[h] // 3
-    hkey = np.minimum(f, g) * np.int64(m) + np.maximum(f, g)
-    crossed = np.zeros(he.n_edges, dtype=bool)
-    if fkey.size:
-        pos = np.minimum(np.searchsorted(fkey, hkey), fkey.size - 1)
-        crossed[e[fkey[pos] == hkey]] = True
-    cand_idx = np.flatnonzero(todo[e_isl] & ~crossed)
-    core = _two_core(ns, ev[cand_idx])
-    cut = np.zeros(he.n_edges, dtype=bool)
-    cut[cand_idx[core]] = True
-    cut &= ~boundary_edge
-    # closed genus-0 islands: nothing to cut yet; open them from the root to the farthest vertex
-    has_cut = np.bincount(e_isl[cut], minlength=len(todo)) > 0
-    sphere = np.intersect1d(closed, np.flatnonzero(~has_cut))
-    for isl in sphere:  # one iteration per closed genus-0 island, not per vertex
-        inside = np.flatnonzero(v_isl == isl)
-        r = int(roots[np.searchsorted(closed, isl)])
-        d1, p1 = csgraph.dijkstra(graph, directed=False, indices=r, return_predecessors=True)
-        far1 = d1[inside]
-        other = ~keep[inside] & (inside != r)  # the far end: not a vertex to keep whole if another can be
-        if other.any():
-            far1 = np.where(other, far1, -1.0)
-        b = int(inside[np.argmax(far1)])  # never r: every other vertex is farther
-        path = [b]
-        while path[-1] != r:  # walks one path, O(sqrt(n)) steps on a typical mesh
-            path.append(int(p1[path[-1]]))
-        if len(path) == 2:
-            # one edge opens nothing (its two sides join the same two vertices, which
-            # is still one edge): go on to the neighbour of b costing least that is not
-            # r (from the edge list: ``graph`` holds each edge once, at its lower vertex;
-            # reading b's row alone found none, or only r, on small closed meshes)
-            at = np.flatnonzero((ev[:, 0] == b) | (ev[:, 1] == b))
-            nb = np.where(ev[at, 0] == b, ev[at, 1], ev[at, 0])
-            path.insert(0, int(nb[np.argmin(np.where(nb == r, np.inf, w[at]))]))
-        p = np.asarray(path, dtype=np.int64)
-        pk = np.minimum(p[:-1], p[1:]) * np.int64(ns) + np.maximum(p[:-1], p[1:])
-        cut[np.searchsorted(ekey, pk)] = True
-    return cut
-
-
-def _orient_cut(Fs, he, face_island, n_islands, area, cut, flip, todo):
-    """Orient the islands being cut along their uncut edges (a spanning tree suffices)."""
-    m = len(Fs)
-    h = np.flatnonzero((he.twin > np.arange(3 * m)) & ~cut[he.edge])
-    f2, orientable = _orientation(Fs, he, face_island, n_islands, area, tree_only=h)
-    if not orientable[todo].all():  # pragma: no cover - the cut removes every orientation reversal
-        raise RuntimeError("cut islands are still non-orientable")
-    return np.where(todo[face_island], f2, flip)
-
-
-# --------------------------------------------------------------------------- fans
 
 
 @dataclass
@@ -844,7 +373,7 @@ def fans(faces: np.ndarray, twin: np.ndarray, ns: int) -> Fans:
     flat = faces.ravel()
     m3 = flat.size
     c = np.arange(m3)
-    succ = _rotate(twin.reshape(-1, 3), back=True).ravel()  # -1 at the end of a boundary fan
+    succ = rotate_faces(twin.reshape(-1, 3), back=True).ravel()  # -1 at the end of a boundary fan
     count = np.bincount(flat, minlength=ns)
     start = np.zeros(ns + 1, dtype=np.int64)
     start[1:] = np.cumsum(count)

@@ -15,9 +15,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from .blocks import Islands
 from .errors import InvalidMeshError, offenders
-from .seeds import signed_double_areas
+from .geometry import signed_double_areas
+from .islands import Islands
 
 __all__ = ["pin_targets", "pins_spread", "fit_to_pins", "similarity", "refine_to_pins"]
 

@@ -45,10 +45,11 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ._parallel import solve_columns
-from .blocks import Islands
+from .geometry import signed_double_areas
+from .islands import Islands
 from .mesh import unique_edges
 from .ordering import nested_dissection
-from .seeds import lscm, signed_double_areas, tutte
+from .seeds import lscm, tutte
 
 __all__ = ["Refinement", "refine", "FaceFrames"]
 
@@ -212,81 +213,7 @@ class Refinement:
         self.energy.append(float(self.island_energy.sum()) / max(float(self.island_area.sum()), 1e-300))
 
 
-class _PerIsland:
-    """Per-island reductions over vertex rows and face rows (islands are independent
-    problems: each gets its own step length, line search, memory and stopping test)."""
-
-    def __init__(self, islands: Islands, faces: np.ndarray):
-        self.k = islands.n
-        self.islands = islands
-        self.vertex = islands.label
-        self.face = islands.label[faces[:, 0]]
-        order = np.argsort(self.face, kind="stable")
-        self._face_order = order
-        self._face_start = np.searchsorted(self.face[order], np.arange(self.k))
-        self._has_faces = np.bincount(self.face, minlength=self.k) > 0
-        self._repeat = 2 * islands.size  # both columns of every row, island by island
-
-    def dot(self, a, b):
-        """(n, 2), (n, 2) -> (k,).
-
-        One BLAS dot per large island (rows are stored island by island) and one
-        ``bincount`` over the rows of the small ones: a ``bincount`` over every row took
-        1 ms at 108k rows against 0.15 ms (100k-vertex peaks beside Suzanne's 112 Smart UV
-        islands, 250 calls per refinement)."""
-        if self.k == 1:  # one island: a BLAS dot; ``(a * b).sum(axis=1)`` is 4x slower
-            return np.array([np.dot(a.ravel(), b.ravel())])
-        isl = self.islands
-        out = np.zeros(self.k)
-        if isl.small_rows.size:
-            r = isl.small_rows
-            a_s, b_s = np.take(a, r, axis=0), np.take(b, r, axis=0)
-            out += np.bincount(self.vertex[r], a_s[:, 0] * b_s[:, 0] + a_s[:, 1] * b_s[:, 1], minlength=self.k)
-        for i in isl.large:  # bounded by n / blocks._LARGE
-            r = isl.rows(i)
-            out[i] = np.dot(a[r].ravel(), b[r].ravel())
-        return out
-
-    def faces_in(self, which):
-        """Faces of the islands flagged in ``which`` (k,) bool, island by island."""
-        lo, hi = self._face_start, np.append(self._face_start[1:], len(self.face))
-        counts = np.where(which, hi - lo, 0)
-        if not counts.any():
-            return np.zeros(0, dtype=np.int64)
-        # each flagged island's run of the island-sorted face order
-        start = np.repeat(lo - np.cumsum(counts) + counts, counts)
-        return self._face_order[start + np.arange(counts.sum())]
-
-    def face_sum(self, x):
-        if self.k == 1:
-            return np.array([x.sum()], dtype=np.float64)
-        return np.bincount(self.face, x, minlength=self.k)
-
-    def face_min(self, x):
-        out = np.full(self.k, np.inf)
-        if self.k == 1 and len(x):
-            out[0] = x.min()
-        elif len(x):
-            out[self._has_faces] = np.minimum.reduceat(x[self._face_order], self._face_start)[self._has_faces]
-        return out
-
-    def rows(self, per_island):
-        """Per-island scalars spread over the (n, 2) vertex rows: (k,) -> (n, 2), or
-        (1, 1) for one island.
-
-        Islands are contiguous row blocks, so this is one ``np.repeat``; an (n, 1) column
-        broadcast against (n, 2) rows made every such product 5-6x slower (measured:
-        0.35 ms against 0.065 ms at 27k rows, 2.0 against 0.32 ms at 134k)."""
-        if self.k == 1:
-            return per_island.reshape(1, 1)
-        return np.repeat(per_island, self._repeat).reshape(-1, 2)
-
-    def faces_of(self, per_island):
-        """Per-island values for every face: (k,) -> (m,) or (1,)."""
-        return per_island[:1] if self.k == 1 else per_island[self.face]
-
-
-def _reseed(X, faces, x, he_twin, islands, frames, each, pinned, out, order=None):
+def _reseed(X, faces, x, he_twin, islands, frames, per_face, pinned, out, order=None):
     """Replace the seed of islands that fold or collapse (and have no pins) by a
     conformal map, or by a Tutte embedding where that folds too. Returns the new seed and
     the islands that are still folded.
@@ -297,7 +224,7 @@ def _reseed(X, faces, x, he_twin, islands, frames, each, pinned, out, order=None
     layout holds triangles of 1e-9 their area; 100 iterations left the energy at 4e17).
     """
     det = signed_double_areas(x, faces) / (2.0 * frames.area)
-    poor = each.face_sum(det <= _COLLAPSED) > 0
+    poor = per_face.sum(det <= _COLLAPSED) > 0
     bad = poor & (np.bincount(islands.label, pinned, minlength=islands.n) == 0)
     for name, floor in (("conformal", _COLLAPSED), ("tutte", 0.0)):
         if not bad.any():
@@ -309,11 +236,11 @@ def _reseed(X, faces, x, he_twin, islands, frames, each, pinned, out, order=None
                 y = tutte(X, faces, he_twin, islands, frames, bad, order)
         except RuntimeError:  # SuperLU: "Factor is exactly singular"; they stay as they are
             continue
-        ok = bad & (each.face_sum(signed_double_areas(y, faces) <= floor * 2.0 * frames.area) == 0)
+        ok = bad & (per_face.sum(signed_double_areas(y, faces) <= floor * 2.0 * frames.area) == 0)
         x = np.where(ok[islands.label][:, None], y, x)
         out.reseeded[name] = ok
         bad &= ~ok
-    return x, each.face_sum(signed_double_areas(x, faces) <= 0) > 0
+    return x, per_face.sum(signed_double_areas(x, faces) <= 0) > 0
 
 
 @dataclass
@@ -420,17 +347,17 @@ def refine(
         proxy = quadratic_proxy(X, faces, islands, pinned, order)
     frames, H, perm, lu = proxy.frames, proxy.H, proxy.perm, proxy.lu
     area = frames.area
-    each = _PerIsland(islands, faces)
+    per_face = Islands.labelled(islands.label[faces[:, 0]], islands.n)
     out = Refinement(uv=np.array(uv, dtype=np.float64, copy=True))
     out.reseeded = {name: np.zeros(islands.n, dtype=bool) for name in ("conformal", "tutte")}
     if carry is None:
-        x, stuck = _reseed(X, faces, out.uv, he_twin, islands, frames, each, pinned, out, order)
+        x, stuck = _reseed(X, faces, out.uv, he_twin, islands, frames, per_face, pinned, out, order)
     else:
         x, stuck = out.uv, np.zeros(islands.n, dtype=bool)
     # islands that still fold, and islands with nothing free, are left as they are
     free_count = np.bincount(islands.label, ~pinned, minlength=islands.n)
     active = ~stuck & (free_count > 0)
-    live_face = active[each.face]
+    live_face = active[per_face.label]
     live_area = float(area[live_face].sum())
     every_face_live = bool(live_face.all())
     fixed = np.flatnonzero(pinned)
@@ -440,7 +367,7 @@ def refine(
         per-face derivatives dE/dJ, which :func:`gradient` turns into dE/duv."""
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             e, G = _energy_terms(*J, area)
-        return each.face_sum(e if every_face_live else np.where(live_face, e, 0.0)), G
+        return per_face.sum(e if every_face_live else np.where(live_face, e, 0.0)), G
 
     def gradient(G):
         if not every_face_live:
@@ -481,14 +408,14 @@ def refine(
         y = precondition(rhs)
         y[pinned] = x[pinned]
         Jy = frames.jacobians(y)
-        folds = each.face_sum((Jy[0] * Jy[3] - Jy[1] * Jy[2]) <= 0) > 0
+        folds = per_face.sum((Jy[0] * Jy[3] - Jy[1] * Jy[2]) <= 0) > 0
         Ey, Gy = energies(Jy)
         take = stepping & ~folds & (Ey < E)
         if not take.any():
             break
-        x = np.where(each.rows(take), y, x)
-        J = tuple(np.where(each.faces_of(take), jy, j) for jy, j in zip(Jy, J))
-        G = [np.where(each.faces_of(take), gy, gk) for gy, gk in zip(Gy, G)]
+        x = np.where(islands.spread(take), y, x)
+        J = tuple(np.where(per_face.expand(take), jy, j) for jy, j in zip(Jy, J))
+        G = [np.where(per_face.expand(take), gy, gk) for gy, gk in zip(Gy, G)]
         E = np.where(take, Ey, E)
         stepping = take  # an island that declines once has reached ARAP's reach
         history.append(E)
@@ -499,7 +426,7 @@ def refine(
     endless = active & ~np.isfinite(E)
     if endless.any():
         active &= ~endless
-        live_face = active[each.face]
+        live_face = active[per_face.label]
         live_area = float(area[live_face].sum())
         every_face_live = bool(live_face.all())
         E, G = energies(J)
@@ -512,42 +439,42 @@ def refine(
     if carry is not None:
         memory, gamma = carry
     for it in range(1, iterations + 1):  # quasi-Newton steps, each one factored solve
-        q = np.where(each.rows(active), g, 0.0)
+        q = np.where(islands.spread(active), g, 0.0)
         alphas = []
         for s_k, y_k, rho in reversed(memory):
-            a_k = rho * each.dot(s_k, q)
+            a_k = rho * islands.dot(s_k, q)
             alphas.append(a_k)
-            q -= each.rows(a_k) * y_k
-        r = precondition(q) * each.rows(gamma)
+            q -= islands.spread(a_k) * y_k
+        r = precondition(q) * islands.spread(gamma)
         for a_k, (s_k, y_k, rho) in zip(reversed(alphas), memory):
-            r += each.rows(a_k - rho * each.dot(y_k, r)) * s_k
+            r += islands.spread(a_k - rho * islands.dot(y_k, r)) * s_k
         p = -r
-        slope = each.dot(g, p)
+        slope = islands.dot(g, p)
         lost = active & (slope >= 0)
         if lost.any():  # not a descent direction: those islands forget and use the proxy
             memory = [(s_k, y_k, np.where(lost, 0.0, rho)) for s_k, y_k, rho in memory]
             gamma[lost] = 1.0
-            p = np.where(each.rows(lost), -precondition(np.where(each.rows(lost), g, 0.0)), p)
-            slope = each.dot(g, p)
-        p = np.where(each.rows(active), p, 0.0)
+            p = np.where(islands.spread(lost), -precondition(np.where(islands.spread(lost), g, 0.0)), p)
+            slope = islands.dot(g, p)
+        p = np.where(islands.spread(active), p, 0.0)
         dJ = frames.jacobians(p)
-        t = np.where(active, np.minimum(1.0, 0.9 * each.face_min(_max_step(J, dJ, 1.0 / 0.9))), 0.0)
+        t = np.where(active, np.minimum(1.0, 0.9 * per_face.min(_max_step(J, dJ, 1.0 / 0.9))), 0.0)
         searching = active.copy()
         Jt = None
         while searching.any():  # backtracking (Armijo), island by island
-            f = None if Jt is None else each.faces_in(searching)
+            f = None if Jt is None else per_face.members(searching)
             if f is None or 2 * len(f) > len(area):
-                Jt = tuple(j + each.faces_of(t) * dj for j, dj in zip(J, dJ))
+                Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(J, dJ))
                 Et, Gt = energies(Jt)
                 Gt = list(Gt)
             else:  # few faces still searching: evaluate only theirs, the rest stands
-                tf = t[each.face[f]]
+                tf = t[per_face.label[f]]
                 Jf = [np.take(j, f) + tf * np.take(dj, f) for j, dj in zip(J, dJ)]
                 with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                     ef, Gf = _energy_terms(*Jf, np.take(area, f))
                 for k in range(4):
                     Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
-                Et = np.where(searching, np.bincount(each.face[f], ef, minlength=islands.n), Et)
+                Et = np.where(searching, np.bincount(per_face.label[f], ef, minlength=islands.n), Et)
             searching &= ~(Et <= E + 1e-4 * t * slope)
             t[searching] *= 0.5
             gone = searching & (t < 1e-12)
@@ -557,23 +484,23 @@ def refine(
         if not (t > 0).any():
             break
         # every island that moved was last evaluated at its final step; the others stay
-        still = each.faces_of(t == 0)
+        still = per_face.expand(t == 0)
         Jt = tuple(np.where(still, j, jt) for j, jt in zip(J, Jt))
         Et = np.where(t == 0, E, Et)
-        x_new = x + each.rows(t) * p
+        x_new = x + islands.spread(t) * p
         g_new = gradient(Gt)  # rows of islands that did not move are not used again
         s_k, y_k = x_new - x, g_new - g
-        sy, ss = each.dot(s_k, y_k), each.dot(s_k, s_k)
+        sy, ss = islands.dot(s_k, y_k), islands.dot(s_k, s_k)
         good = (t > 0) & (sy > 1e-12 * ss)
         if good.any():
-            s_k, y_k = np.where(each.rows(good), s_k, 0.0), np.where(each.rows(good), y_k, 0.0)
+            s_k, y_k = np.where(islands.spread(good), s_k, 0.0), np.where(islands.spread(good), y_k, 0.0)
             rho = np.where(good, 1.0 / np.where(good, sy, 1.0), 0.0)
             memory.append((s_k, y_k, rho))
             memory = memory[-_MEMORY:]
             # scale the proxy to the curvature seen along the step, s^T H s / s^T y, with
             # s^T K s = t^2 sum_f A_f |dJ_f|^2 from the Jacobians at hand (no product with H)
-            sKs = t * t * each.face_sum(area * (dJ[0] * dJ[0] + dJ[1] * dJ[1] + dJ[2] * dJ[2] + dJ[3] * dJ[3]))
-            sHs = 2.0 * (sKs + each.dot(s_k, s_k * whisper))
+            sKs = t * t * per_face.sum(area * (dJ[0] * dJ[0] + dJ[1] * dJ[1] + dJ[2] * dJ[2] + dJ[3] * dJ[3]))
+            sHs = 2.0 * (sKs + islands.dot(s_k, s_k * whisper))
             gamma = np.where(good, sHs / np.where(good, sy, 1.0), gamma)
         active &= ~(E - Et < tol * Et)
         x, J, E, g = x_new, Jt, Et, g_new
@@ -583,7 +510,7 @@ def refine(
             break
         if it < iterations and islands.size[active].sum() <= _HANDOVER * n:
             rows, sub, sub_area = _go_on_alone(
-                X, faces, x, islands, active, each, pinned, iterations - it, tol, (memory, gamma), area
+                X, faces, x, islands, active, per_face, pinned, iterations - it, tol, (memory, gamma), area
             )
             x = x.copy()
             x[rows] = sub.uv
@@ -595,18 +522,18 @@ def refine(
             out.iterations = it + sub.iterations
             break
     out.uv = x
-    out.island_energy, out.island_area = E, each.face_sum(np.where(live_face, area, 0.0))
+    out.island_energy, out.island_area = E, per_face.sum(np.where(live_face, area, 0.0))
     a, b, c, d = frames.jacobians(x)  # from x: a hand-over leaves J behind
     fro, det = a * a + b * b + c * c + d * d, a * d - b * c
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = fro / (det * det)
-    out.island_parts = tuple(each.face_sum(np.where(live_face, area * t, 0.0)) for t in (fro, inv))
+    out.island_parts = tuple(per_face.sum(np.where(live_face, area * t, 0.0)) for t in (fro, inv))
     out.folded = int((signed_double_areas(x, faces) <= 0).sum())
     out.seconds = time.perf_counter() - t0
     return out
 
 
-def _go_on_alone(X, faces, x, islands: Islands, active, each: _PerIsland, pinned, iterations, tol, state, area):
+def _go_on_alone(X, faces, x, islands: Islands, active, per_face: Islands, pinned, iterations, tol, state, area):
     """:func:`refine` for the ``active`` islands alone, from their layout in ``x`` and
     their part of the L-BFGS ``state`` (memory, gamma): their rows and faces, and a
     nested-dissection order and proxy of their own (the proxy's blocks are what they
@@ -615,7 +542,7 @@ def _go_on_alone(X, faces, x, islands: Islands, active, each: _PerIsland, pinned
     rows, sub = islands.subset(active)
     index = np.full(len(X), -1, dtype=np.int64)
     index[rows] = np.arange(len(rows))
-    f = each.faces_in(active)
+    f = per_face.members(active)
     F_sub = index[faces[f]]
     X_sub = np.take(X, rows, axis=0)
     order = nested_dissection(X_sub, unique_edges(F_sub))

@@ -21,16 +21,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from .blocks import Islands
+from .geometry import signed_double_areas
+from .islands import Islands
 
-__all__ = ["lscm", "tutte", "signed_double_areas"]
-
-
-def signed_double_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Twice the signed UV area of every face, positive counter-clockwise: (m,)."""
-    u, v = uv[:, 0], uv[:, 1]
-    a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
-    return (u[b] - u[a]) * (v[c] - v[a]) - (v[b] - v[a]) * (u[c] - u[a])
+__all__ = ["lscm", "tutte"]
 
 
 def _scale_to_area(uv, faces, islands: Islands, area3d, which):
