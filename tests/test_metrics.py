@@ -17,32 +17,32 @@ def flat():
 def test_isometric_layout(flat):
     V, F, U = flat
     d = metrics.distortion(V, F, U)
-    assert d["residual_variance"] < 1e-30 and d["edge_rms"] < 1e-14 and d["one_minus_r2"] < 1e-14
-    assert d["stretch_l2"] == pytest.approx(1) and d["stretch_linf"] == pytest.approx(1)
-    assert d["symmetric_dirichlet"] == pytest.approx(4)
-    assert d["area_distortion"] < 1e-12 and d["angle_distortion"] < 1e-12 and d["angle_error_deg"] < 1e-10
-    assert d["flipped"] == 0
+    assert d.residual_variance < 1e-30 and d.edge_rms < 1e-14 and d.one_minus_r2 < 1e-14
+    assert d.stretch_l2 == pytest.approx(1) and d.stretch_linf == pytest.approx(1)
+    assert d.symmetric_dirichlet == pytest.approx(4)
+    assert d.area_distortion < 1e-12 and d.angle_distortion < 1e-12 and d.angle_error_deg < 1e-10
+    assert d.flipped == 0
 
 
 def test_uniform_scale_is_normalised_where_documented(flat):
     V, F, U = flat
     d = metrics.distortion(V, F, 3 * U)
-    assert d["edge_rms"] < 1e-14 and d["stretch_l2"] == pytest.approx(1)
-    assert d["symmetric_dirichlet"] == pytest.approx(4) and d["area_distortion"] < 1e-12
+    assert d.edge_rms < 1e-14 and d.stretch_l2 == pytest.approx(1)
+    assert d.symmetric_dirichlet == pytest.approx(4) and d.area_distortion < 1e-12
     # the paper's residual variance is in mesh units: it sees the scale
     l3, _ = metrics.edge_lengths(V, F, U)
-    assert d["residual_variance"] == pytest.approx(np.var(2 * l3))
+    assert d.residual_variance == pytest.approx(np.var(2 * l3))
 
 
 def test_anisotropic_stretch_has_the_analytic_values(flat):
     V, F, U = flat
     d = metrics.distortion(V, F, U * [2.0, 1.0])
     # sigma = (2, 1) up to scale: at equal area sigma' = (sqrt2, 1/sqrt2), Sander's map is the inverse
-    assert d["stretch_l2"] == pytest.approx(np.sqrt(1.25))
-    assert d["stretch_linf"] == pytest.approx(np.sqrt(2))
-    assert d["symmetric_dirichlet"] == pytest.approx(5.0)  # min over s of 5 s^2 + 1.25 / s^2
-    assert d["angle_distortion"] == pytest.approx(np.log(2))
-    assert d["area_distortion"] < 1e-12
+    assert d.stretch_l2 == pytest.approx(np.sqrt(1.25))
+    assert d.stretch_linf == pytest.approx(np.sqrt(2))
+    assert d.symmetric_dirichlet == pytest.approx(5.0)  # min over s of 5 s^2 + 1.25 / s^2
+    assert d.angle_distortion == pytest.approx(np.log(2))
+    assert d.area_distortion < 1e-12
 
 
 def test_flips_count_folded_and_collapsed_faces():

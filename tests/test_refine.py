@@ -9,7 +9,7 @@ from isoparam_addon.solver import baselines, metrics, parametrize
 from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver.islands import Islands
 from isoparam_addon.solver.mesh import HalfEdges
-from isoparam_addon.solver.refine import _max_step, refine
+from isoparam_addon.solver.refinement import _max_step, refine
 
 from .conftest import edge_length_error, procrustes_error
 
@@ -26,13 +26,13 @@ def test_refinement_lowers_the_energy_monotonically_and_never_folds(name):
     V, F = CURVED[name]()
     base = parametrize(V, F)
     r = parametrize(V, F, refine=200)
-    e = np.array(r.stats["refine_energy"])
+    e = np.array(r.stats.refine_energy)
     assert len(e) > 1 and np.all(np.diff(e) <= 1e-12 * e[:-1])  # never up
     assert e[-1] >= 4.0 - 1e-9  # symmetric Dirichlet per area is at least 4
     assert metrics.flipped(V, F, r.corner_uv) == 0 and not r.flipped.any()
     before, after = base.distortion(), r.distortion()
-    assert after["symmetric_dirichlet"] < before["symmetric_dirichlet"]
-    assert after["stretch_l2"] < before["stretch_l2"]
+    assert after.symmetric_dirichlet < before.symmetric_dirichlet
+    assert after.stretch_l2 < before.stretch_l2
 
 
 @settings(max_examples=10, deadline=None, derandomize=True)
@@ -40,7 +40,7 @@ def test_refinement_lowers_the_energy_monotonically_and_never_folds(name):
 def test_energy_never_goes_up_on_random_meshes(seed, n):
     V, F, _ = ex.s_surface_random(n, seed)
     r = parametrize(V, F, refine=50)
-    e = np.array(r.stats["refine_energy"])
+    e = np.array(r.stats.refine_energy)
     assert np.all(np.diff(e) <= 1e-12 * e[:-1])
     assert metrics.flipped(V, F, r.corner_uv) == 0
 
@@ -64,18 +64,18 @@ def test_refinement_unfolds_a_folded_four_step_layout():
     V, F, _ = ex.s_surface_random(600, 0)  # the four-step layout folds 104 triangles here
     assert metrics.flipped(V, F, parametrize(V, F).uv) > 50
     r = parametrize(V, F, refine=100)
-    assert sum(r.stats["reseeded"].values()) == 1 and metrics.flipped(V, F, r.uv) == 0
-    assert any("folded" in w for w in r.warnings)
-    assert r.distortion()["edge_rms"] < 0.2
+    assert r.stats.restarted_conformal + r.stats.restarted_tutte == 1 and metrics.flipped(V, F, r.uv) == 0
+    assert any("folded" in w.text for w in r.warnings)
+    assert r.distortion().edge_rms < 0.2
 
 
 def test_a_strongly_curved_island_restarts_from_a_conformal_map():
     V, F = ex.sphere_band()  # a long band around a sphere: the four-step layout folds half of it
     assert metrics.flipped(V, F, parametrize(V, F).uv) > 500
     r = parametrize(V, F, refine=100)
-    assert r.stats["reseeded"] == {"conformal": 1, "tutte": 0}
+    assert (r.stats.restarted_conformal, r.stats.restarted_tutte) == (1, 0)
     d = r.distortion()
-    assert d["flipped"] == 0 and d["edge_rms"] < 0.02 and d["symmetric_dirichlet"] < 4.01
+    assert d.flipped == 0 and d.edge_rms < 0.02 and d.symmetric_dirichlet < 4.01
 
 
 def _islands(*meshes):
@@ -131,29 +131,29 @@ def test_a_slow_island_goes_on_alone_where_it_left_off(monkeypatch):
     # a developable S-surface (done after 1 iteration) beside a closed box (11): once the
     # box is all that descends it goes on with its own proxy and the same L-BFGS state,
     # and the layout and energies are those of the refinement without the hand-over
-    from isoparam_addon.solver import refine
+    from isoparam_addon.solver import refinement
 
     (Vs, Fs), (Vb, Fb, D) = ex.s_surface(100, 30)[:2], ex.box(8)
     V, F, D = np.vstack([Vs, Vb + [5.0, 0.0, 0.0]]), np.vstack([Fs, Fb + len(Vs)]), D + len(Vs)
     handed = []
-    go_on = refine._go_on_alone
-    monkeypatch.setattr(refine, "_go_on_alone", lambda *a: handed.append(go_on(*a)) or handed[-1])
+    go_on = refinement._go_on_alone
+    monkeypatch.setattr(refinement, "_go_on_alone", lambda *a: handed.append(go_on(*a)) or handed[-1])
     r = parametrize(V, F, refine=100, pack=False, inner_edges=D)
     box = np.arange(len(F)) >= len(Fs)
     assert len(handed) == 1 and len(handed[0][0]) == len(np.unique(r.corner_uv[box].reshape(-1, 2), axis=0))
     assert handed[0][1].iterations > 5  # the box's iterations after the hand-over
     alone = parametrize(Vb, Fb, refine=100, pack=False, inner_edges=D - len(Vs))
     assert procrustes_error(alone.corner_uv.reshape(-1, 2), r.corner_uv[box].reshape(-1, 2)) < 1e-7
-    monkeypatch.setattr(refine, "_HANDOVER", 0.0)
+    monkeypatch.setattr(refinement, "_HANDOVER", 0.0)
     whole = parametrize(V, F, refine=100, pack=False, inner_edges=D)
-    assert r.stats["refine_iterations"] == whole.stats["refine_iterations"]
-    np.testing.assert_allclose(r.stats["refine_energy"], whole.stats["refine_energy"], rtol=1e-12)
+    assert r.stats.refine_iterations == whole.stats.refine_iterations
+    np.testing.assert_allclose(r.stats.refine_energy, whole.stats.refine_energy, rtol=1e-12)
     assert np.abs(r.corner_uv - whole.corner_uv).max() < 1e-9 * np.abs(whole.corner_uv).max()
 
 
 def test_conformal_seed_is_a_similarity_on_a_developable_mesh():
     from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.refine import FaceFrames
+    from isoparam_addon.solver.refinement import FaceFrames
     from isoparam_addon.solver.seeds import lscm
 
     V, F, U = ex.cylinder_strips(30, (6, 15), seed=3)
@@ -170,7 +170,7 @@ def test_conformal_seed_is_stationary_for_the_cauchy_riemann_energy_but_at_two_p
     import scipy.sparse as sp
 
     from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.refine import FaceFrames
+    from isoparam_addon.solver.refinement import FaceFrames
     from isoparam_addon.solver.seeds import lscm
     from isoparam_addon.solver.topology import build_topology
 
@@ -193,7 +193,7 @@ def test_conformal_seed_is_stationary_for_the_cauchy_riemann_energy_but_at_two_p
 
 def test_tutte_seed_never_folds():
     from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.refine import FaceFrames
+    from isoparam_addon.solver.refinement import FaceFrames
     from isoparam_addon.solver.seeds import signed_double_areas, tutte
     from isoparam_addon.solver.topology import build_topology
 
@@ -226,7 +226,7 @@ def test_coincident_boundary_vertices_do_not_collapse_the_tutte_seed():
     # found by fuzzing: the cut put the three coincident vertices on the boundary, the
     # chord-length circle put them on one point, and the faces between them had no area;
     # no seed was left, the island was not refined, and 8 of its 20 triangles stayed flipped
-    from isoparam_addon.solver.refine import FaceFrames
+    from isoparam_addon.solver.refinement import FaceFrames
     from isoparam_addon.solver.seeds import signed_double_areas, tutte
     from isoparam_addon.solver.topology import build_topology
 
@@ -237,7 +237,7 @@ def test_coincident_boundary_vertices_do_not_collapse_the_tutte_seed():
     uv = tutte(X, topo.faces, topo.he.twin, islands, FaceFrames(X, topo.faces), np.ones(islands.n, bool))
     assert (signed_double_areas(uv, topo.faces) > 0).all()
     r = parametrize(*_icosahedron_with_a_face_collapsed(), refine=100)
-    assert r.stats["reseeded"]["tutte"] == 1 and r.stats["refine_iterations"] > 0
+    assert r.stats.restarted_tutte == 1 and r.stats.refine_iterations > 0
     assert not r.flipped.any() and np.isfinite(r.corner_uv).all()
 
 
@@ -250,11 +250,11 @@ def test_an_island_the_refinement_cannot_open_is_reported():
     mesh = np.load(Path(__file__).parent / "data" / "fuzz_head_tutte_crushed.npz")
     V, F = mesh["V"].astype(np.float64), mesh["F"].astype(np.int64)
     r = parametrize(V, F, refine=100, split_bowties=True)  # as the add-on solves it
-    far = [w for w in r.warnings if "far from isometric" in w]
-    assert len(far) == 1 and "1 island far" in far[0] and "mark seams" in far[0]
-    assert r.distortion()["symmetric_dirichlet"] > 1e3 and not r.flipped.any()
+    far = [w for w in r.warnings if "far from isometric" in w.text]
+    assert len(far) == 1 and "1 island far" in far[0].text and "mark seams" in far[0].text
+    assert r.distortion().symmetric_dirichlet > 1e3 and not r.flipped.any()
     for name, make in CURVED.items():  # the meshes the refinement does open say nothing
-        assert not [w for w in parametrize(*make(), refine=100).warnings if "far from" in w], name
+        assert not [w for w in parametrize(*make(), refine=100).warnings if "far from" in w.text], name
 
 
 def test_seeds_solved_in_a_fill_reducing_order_are_the_same_seeds():
@@ -262,7 +262,7 @@ def test_seeds_solved_in_a_fill_reducing_order_are_the_same_seeds():
     same layout as SuperLU's own COLAMD order, on the flagged islands only."""
     from isoparam_addon.solver.embed import plan_elimination
     from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.refine import FaceFrames
+    from isoparam_addon.solver.refinement import FaceFrames
     from isoparam_addon.solver.seeds import lscm, tutte
     from isoparam_addon.solver.topology import build_topology
 
@@ -274,7 +274,7 @@ def test_seeds_solved_in_a_fill_reducing_order_are_the_same_seeds():
     X = V[topo.vertex_of]
     islands = Islands(topo.vertex_island, topo.n_islands)
     plan = plan_elimination(X, topo.he.edge_vertices, islands)
-    order = np.concatenate([plan.free_order, plan.pins.ravel()])
+    order = np.concatenate([plan.free_order, plan.anchors.ravel()])
     which = np.array([True, False, True])
     frames = FaceFrames(X, topo.faces)
     for seed in (
@@ -289,12 +289,12 @@ def test_seeds_solved_in_a_fill_reducing_order_are_the_same_seeds():
 def test_zero_iterations_is_the_paper_exactly():
     V, F = ex.peaks(41)
     r = parametrize(V, F, refine=0)
-    assert "refine_iterations" not in r.stats  # the refinement did not run at all
+    assert r.stats.refine_iterations == 0 and not r.stats.refine_energy  # the refinement did not run at all
     ref, _ = baselines.dense_paper(V, F)  # the paper's eigenvectors, computed densely
     assert procrustes_error(ref, r.uv) < 1e-5
     assert metrics.residual_variance(V, F, r.uv) == pytest.approx(4.0168e-3, rel=1e-4)
     refined = parametrize(V, F, refine=100)
-    assert refined.stats["refine_iterations"] > 0
+    assert refined.stats.refine_iterations > 0
     assert procrustes_error(ref, refined.uv) > 1e-2  # and the refinement does change it
 
 
@@ -371,10 +371,10 @@ def test_corners_of_one_vertex_pinned_to_different_uvs_are_held_at_their_mean_an
     r = parametrize(V, F, pins=(mask, uv))
     expected = [0.5 + 0.2 / mask.sum(), 0.5]
     assert np.abs(r.corner_uv[mask] - expected).max() < 1e-12
-    [w] = [w for w in r.warnings if "1 pinned vertex has corners pinned to different UVs" in w]
-    assert w.kind == "pin_conflict" and r.stats["pin_conflicts"] == 1  # the operator words it its own way
+    [w] = [w for w in r.warnings if "1 pinned vertex has corners pinned to different UVs" in w.text]
+    assert w.kind == "pin_conflict" and r.stats.pin_conflicts == 1  # the operator words it its own way
     agreed = parametrize(V, F, pins=(mask, np.where(mask[:, :, None], [0.5, 0.5], 0.0)))
-    assert not any("different UVs" in w for w in agreed.warnings) and agreed.stats["pin_conflicts"] == 0
+    assert not any("different UVs" in w.text for w in agreed.warnings) and agreed.stats.pin_conflicts == 0
 
 
 def test_two_pins_fix_placement_rotation_and_scale_only():
@@ -407,7 +407,7 @@ def test_pins_all_on_one_uv_move_the_island_without_collapsing_it(refine, n_pins
         return np.linalg.norm(uv[:, [1, 2, 0]] - uv, axis=2).mean()
 
     assert mean_edge(r.corner_uv) == pytest.approx(mean_edge(free.corner_uv), rel=0.05)
-    assert any("all their pins on one UV" in w for w in r.warnings)
+    assert any("all their pins on one UV" in w.text for w in r.warnings)
     # the island is the free layout moved rigidly so that the pinned vertices' centroid
     # lands on the pins (then they are snapped there): fit the motion on the other vertices
     rest = np.setdiff1d(np.arange(len(V)), list(targets))
@@ -444,7 +444,7 @@ def test_pins_that_do_not_shape_an_island_do_not_stop_its_unfolding():
     on_cut = int(np.flatnonzero(np.bincount(free.cut_edges.ravel(), minlength=len(V)) == 2)[0])
     for v in (on_cut, len(V) // 2):
         r = parametrize(V, F, refine=100, pins=_pins(F, {v: (0.5, 0.5)}))
-        assert not any("could not all be reached" in w or "on one UV" in w for w in r.warnings)
+        assert not any("could not all be reached" in w.text or "on one UV" in w.text for w in r.warnings)
         assert np.abs(r.corner_uv[F == v] - 0.5).max() == 0.0
         if v != on_cut:  # (the two copies of a cut vertex are both held at the one pin)
             assert metrics.flipped(V, F, r.corner_uv) == 0
@@ -490,8 +490,8 @@ def test_a_fold_in_one_island_does_not_stop_another_from_reaching_its_pins():
     pins = _true_shape_pins(V, F, 5, [20.0, 3.0])
     r = parametrize(V, F, inner_edges=Db, pins=pins, pack=False, refine=100)
     assert np.abs(r.corner_uv[pins[0]] - pins[1][pins[0]]).max() < 1e-9
-    assert not any("could not all be reached" in w for w in r.warnings)
-    assert any("restarted 1 from a conformal map" in w for w in r.warnings)
+    assert not any("could not all be reached" in w.text for w in r.warnings)
+    assert any("restarted 1 from a conformal map" in w.text for w in r.warnings)
     assert not r.flipped.any() and metrics.flipped(V, F, r.corner_uv) == 0
 
 
@@ -505,15 +505,15 @@ def test_an_island_whose_four_step_layout_folds_is_unfolded_then_moved_onto_its_
     r = parametrize(V, F, refine=100, pins=_pins(F, targets))
     for v, t in targets.items():
         assert np.abs(r.corner_uv[F == v] - t).max() < 1e-9
-    assert not any("could not all be reached" in w for w in r.warnings)
-    assert r.stats["reseeded"]["conformal"] == 1  # kept from the stage that restarted it
+    assert not any("could not all be reached" in w.text for w in r.warnings)
+    assert r.stats.restarted_conformal == 1  # kept from the stage that restarted it
     assert not r.flipped.any() and metrics.flipped(V, F, r.corner_uv) == 0
 
 
 def test_each_island_moves_onto_its_pins_with_its_own_step():
     from isoparam_addon.solver.islands import Islands
     from isoparam_addon.solver.pins import refine_to_pins
-    from isoparam_addon.solver.refine import Refinement
+    from isoparam_addon.solver.refinement import Refinement
 
     V1, F1 = ex.peaks(5, z_scale=0.0)  # a flat 5x5 grid
     Y = np.vstack([V1[:, :2], V1[:, :2] + [3.0, 0.0]])
@@ -528,7 +528,8 @@ def test_each_island_moves_onto_its_pins_with_its_own_step():
 
     def refine(uv, fixed):  # stands in for the refinement: keeps the layout it is given
         calls.append((uv.copy(), fixed.copy()))
-        return Refinement(uv=uv.copy(), reseeded={k: np.zeros(2, dtype=bool) for k in ("conformal", "tutte")})
+        none, zero = np.zeros(2, dtype=bool), np.zeros(2)
+        return Refinement(uv.copy(), none, none, zero, zero, (zero, zero))
 
     info, reached = refine_to_pins(refine, Y, F, pinned, target, islands)
     np.testing.assert_array_equal(reached, [False, True])
@@ -546,7 +547,7 @@ def test_the_energy_reported_is_the_layouts_after_a_restarted_island_is_fitted_t
     # them; when no stage follows, the energy reported was the one from before that scale
     from isoparam_addon.solver.islands import Islands
     from isoparam_addon.solver.pins import refine_to_pins
-    from isoparam_addon.solver.refine import FaceFrames, refine
+    from isoparam_addon.solver.refinement import FaceFrames, refine
     from isoparam_addon.solver.topology import build_topology
 
     V, F = ex.peaks(9)
@@ -567,7 +568,7 @@ def test_the_energy_reported_is_the_layouts_after_a_restarted_island_is_fitted_t
     fro, det = a * a + b * b + c * c + d * d, a * d - b * c
     area = FaceFrames(X, faces).area
     energy = float((area * (fro + fro / det**2)).sum())
-    assert info.reseeded["conformal"][0] and (det > 0).all()
+    assert info.restarted_conformal[0] and (det > 0).all()
     assert info.island_energy[0] == pytest.approx(energy, rel=1e-9)
     assert info.energy[-1] == pytest.approx(energy / area.sum(), rel=1e-9)
     assert info.energy[-2] < 0.5 * info.energy[-1]  # the scale did change it: 4.0x -> ~9x

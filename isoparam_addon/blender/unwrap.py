@@ -430,10 +430,10 @@ def _warnings(res) -> list[str]:
     """The solver's warnings, as they hold for what the operator writes: the solver holds a
     vertex whose corners are pinned to different UVs at their mean, but pins never move here
     (``layout.place`` puts every pinned corner back on its own UV)."""
-    out = [w for w in res.warnings if getattr(w, "kind", "") != "pin_conflict"]
-    if res.stats.get("pin_conflicts"):
+    out = [w.text for w in res.warnings if w.kind != "pin_conflict"]
+    if res.stats.pin_conflicts:
         out.append(
-            f"{counted(res.stats['pin_conflicts'], 'pinned vertex has', 'pinned vertices have')} corners pinned "
+            f"{counted(res.stats.pin_conflicts, 'pinned vertex has', 'pinned vertices have')} corners pinned "
             "to different UVs: each corner "
             "stays on its pin, so the faces around them stretch between the pins "
             "(unpin all but one UV of each to avoid it)"

@@ -1,4 +1,4 @@
-"""Column-parallel sparse triangular solves.
+"""Concurrency: column-parallel sparse triangular solves, and work beside the main thread.
 
 SuperLU releases the GIL in ``SuperLU.solve`` (SciPy >= 0.18, SuperLU 5), and the
 columns of a right-hand side are independent, so on large systems the columns are split
@@ -10,13 +10,14 @@ round differently for different column counts) and is deterministic.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-__all__ = ["solve_columns"]
+__all__ = ["background", "solve_columns"]
 
 PARALLEL_FROM = 20_000  # rows; below this a thread hand-off costs more than it saves
 
@@ -45,3 +46,32 @@ def solve_columns(lu, b: np.ndarray, trans: str = "N") -> np.ndarray:
     later = pool.submit(lu.solve, np.ascontiguousarray(b[:, half:]), trans)
     first = lu.solve(np.ascontiguousarray(b[:, :half]), trans=trans)
     return np.hstack([first, later.result()])
+
+
+class _Inline:
+    """A stand-in for a one-worker pool that runs a task when its result is asked for."""
+
+    def submit(self, fn, *args) -> _Deferred:
+        return _Deferred(fn, args)
+
+
+class _Deferred:
+    def __init__(self, fn, args):
+        self.fn, self.args, self.value = fn, args, None
+
+    def result(self):
+        if self.fn is not None:  # run once, on first demand
+            self.value, self.fn, self.args = self.fn(*self.args), None, None
+        return self.value
+
+
+@contextlib.contextmanager
+def background(enabled: bool):
+    """A one-worker pool for work that can run beside the calling thread (SuperLU and
+    numpy release the GIL), or, when not ``enabled`` (small problems, where a thread
+    hand-off costs more than it saves), a stand-in that runs each task on demand."""
+    if not enabled:
+        yield _Inline()
+        return
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="isoparam-background") as pool:
+        yield pool

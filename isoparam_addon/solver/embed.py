@@ -16,10 +16,11 @@ Why not the obvious routes (measured on this machine, see the README):
 
 What we do instead
 ------------------
-1. Pin three far-apart vertices P per island and factor one square matrix of the
+1. Pin three far-apart vertices P per island (the *anchors*; not the user's UV pins)
+   and factor one square matrix of the
    sparsity of L, ``A = [L_F  B]``: every row, the free columns, and three random
    border columns per island (1-ring sparsity, conditioning of L, nested-dissection
-   order; see :class:`_PinnedLeastSquares`). Applying ``M_FF^{-1}`` then costs one
+   order; see :class:`_AnchoredLeastSquares`). Applying ``M_FF^{-1}`` then costs one
    transposed and one plain triangular solve and a 3x3 system per island, never
    forming M.
 2. The three *pinned least-squares* functions ``h_k = argmin ||L x||`` with ``x_P = e_k``
@@ -32,7 +33,7 @@ What we do instead
    in LOBPCG, and the correction is computed from the residual so that it stays
    accurate when it is tiny). The Ritz step evaluates ``||L x||^2`` through L
    itself, so its accuracy follows cond(L), not cond(M), and the *result* is the paper's
-   eigenvector pair whatever the pins: they only change how fast it converges. A
+   eigenvector pair whatever the anchors: they only change how fast it converges. A
    developable island converges in one step.
 
 The whole mesh is solved at once: islands are independent diagonal blocks, so one
@@ -52,7 +53,18 @@ from ._parallel import solve_columns
 from .islands import Islands
 from .ordering import nested_dissection
 
-__all__ = ["Embedding", "Plan", "choose_pins", "plan_elimination", "spectral_embedding"]
+__all__ = ["Embedding", "EmbeddingTimings", "Plan", "choose_anchors", "plan_elimination", "spectral_embedding"]
+
+
+@dataclass
+class EmbeddingTimings:
+    """Seconds spent in Step 3: the elimination order, the factorization, the anchored
+    least-squares basis, and the iterations."""
+
+    ordering: float = 0.0
+    factorization: float = 0.0
+    pinned_basis: float = 0.0
+    iterations: float = 0.0
 
 
 @dataclass
@@ -70,7 +82,7 @@ class Embedding:
         Sine of the angle the subspace moved in the last iteration (the error is about
         this times the convergence rate).
     iterations : int
-    timings : dict
+    timings : EmbeddingTimings
     """
 
     coords: np.ndarray
@@ -78,14 +90,14 @@ class Embedding:
     converged: np.ndarray
     change: np.ndarray
     iterations: int
-    timings: dict = field(default_factory=dict)
+    timings: EmbeddingTimings = field(default_factory=lambda: EmbeddingTimings())
 
 
-def choose_pins(X: np.ndarray, islands: Islands) -> np.ndarray:
+def choose_anchors(X: np.ndarray, islands: Islands) -> np.ndarray:
     """Three far-apart, non-collinear vertices per island, (n_islands, 3) int64.
 
     p0 is farthest from the island's centroid, p1 farthest from p0, p2 farthest from
-    the line p0 p1 (all in 3D). Far-apart pins keep ``L_FF`` well conditioned.
+    the line p0 p1 (all in 3D). Far-apart anchors keep ``L_FF`` well conditioned.
     """
     n = len(X)
     idx = np.arange(n)
@@ -119,13 +131,13 @@ class Plan:
 
     Attributes
     ----------
-    pins : (n_islands, 3) int64
+    anchors : (n_islands, 3) int64
     free_order : (n - 3 n_islands,) int64
         The free vertices in elimination order.
     seconds : float
     """
 
-    pins: np.ndarray
+    anchors: np.ndarray
     free_order: np.ndarray
     seconds: float = 0.0
 
@@ -145,19 +157,19 @@ def plan_elimination(X: np.ndarray, edges: np.ndarray, islands: Islands) -> Plan
     islands : Islands
     """
     t0 = time.perf_counter()
-    pins = choose_pins(X, islands)
+    anchors = choose_anchors(X, islands)
     n = len(X)
-    is_pin = np.zeros(n, dtype=bool)
-    is_pin[pins.ravel()] = True
-    free = np.flatnonzero(~is_pin)
-    rank = np.cumsum(~is_pin) - 1
-    keep = ~is_pin[edges[:, 0]] & ~is_pin[edges[:, 1]]
+    is_anchor = np.zeros(n, dtype=bool)
+    is_anchor[anchors.ravel()] = True
+    free = np.flatnonzero(~is_anchor)
+    rank = np.cumsum(~is_anchor) - 1
+    keep = ~is_anchor[edges[:, 0]] & ~is_anchor[edges[:, 1]]
     e = rank[edges[keep]]
     order = free[nested_dissection(np.take(X, free, axis=0), e)] if len(free) else free
-    return Plan(pins, order, time.perf_counter() - t0)
+    return Plan(anchors, order, time.perf_counter() - t0)
 
 
-class _PinnedLeastSquares:
+class _AnchoredLeastSquares:
     """One sparse LU that applies ``M_FF^{-1}`` and gives the pinned least-squares basis.
 
     ``L_F = L[:, F]`` (all n rows, the free columns) has full column rank, but its square
@@ -185,14 +197,14 @@ class _PinnedLeastSquares:
     def __init__(self, L: sp.csr_matrix, islands: Islands, plan: Plan):
         n = L.shape[0]
         nI = islands.n
-        pins = plan.pins
-        self.n, self.islands, self.pins, self.L = n, islands, pins, L.tocsr()
+        anchors = plan.anchors
+        self.n, self.islands, self.anchors, self.L = n, islands, anchors, L.tocsr()
         self.fperm = plan.free_order
         self.nf = nf = len(self.fperm)
         Lc = self.L
         t1 = time.perf_counter()
-        # rows: free vertices (elimination order), then the pins; columns: free, then B
-        self.rows = np.concatenate([self.fperm, pins.ravel()])
+        # rows: free vertices (elimination order), then the anchors; columns: free, then B
+        self.rows = np.concatenate([self.fperm, anchors.ravel()])
         self.label = np.concatenate([islands.label[self.fperm], np.repeat(np.arange(nI), 3)])
         self.B = np.random.default_rng(0x150).standard_normal((n, 3))  # seeded: deterministic
         self.where = np.empty(n, dtype=np.int64)  # row of each vertex
@@ -207,16 +219,16 @@ class _PinnedLeastSquares:
         # iterations, edge error 0.28).
         self.lu = splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.01)
         t2 = time.perf_counter()
-        self.timings = {"ordering": plan.seconds, "factorization": t2 - t1}
+        self.timings = EmbeddingTimings(ordering=plan.seconds, factorization=t2 - t1)
         e3 = np.zeros((n, 3))
         e3[nf + np.arange(3 * nI), np.tile(np.arange(3), nI)] = 1.0  # B columns, k-th of each island
         self.N = solve_columns(self.lu, e3, trans="T")  # A^{-T} E_B: the left null space of L_F
         self.NN = self._gram_rows(self.N, self.N)
-        # the pinned least-squares basis: h_k = argmin ||L x|| with x = e_k on the pins.
+        # the pinned least-squares basis: h_k = argmin ||L x|| with x = e_k on the anchors.
         # Its free part is -M_FF^{-1} L_F^T r_k with r_k = L[:, P] e_k, and since
         # [L_F^T r; 0] = A^T r - [0; B^T r], y = A^{-T} [L_F^T r; 0] = r - N (B^T r).
         H = np.zeros((n, 3))
-        H[pins, np.arange(3)] = 1.0
+        H[anchors, np.arange(3)] = 1.0
         r = self.L @ H  # L[:, P] e_k for every island at once, (n, 3)
         y = self._to_rows(r) - self._per_island(self.N, islands.gram(self.B, r))
         self.H = H - self._from_rows(self._solve_range(y))
@@ -224,7 +236,7 @@ class _PinnedLeastSquares:
     # Row gathers go through np.take: numpy's fancy row indexing of an (n, p) array is
     # 3-8x slower on a million rows (measured here).
     def _to_rows(self, b: np.ndarray) -> np.ndarray:
-        """Vertex order -> row order (free vertices by elimination order, then pins)."""
+        """Vertex order -> row order (free vertices by elimination order, then anchors)."""
         return np.take(b, self.rows, axis=0)
 
     def _from_rows(self, x: np.ndarray) -> np.ndarray:
@@ -363,7 +375,7 @@ def spectral_embedding(
     L : (n, n) sparse
         ``I - W`` from Step 2, rows and columns ordered island by island.
     X : (n, 3) float64
-        Vertex positions (for pins and the fill-reducing order).
+        Vertex positions (for the anchors and the fill-reducing order).
     islands : Islands
     tol : float
         Stop when the subspace moves, or is predicted from the observed linear rate to
@@ -392,7 +404,7 @@ def spectral_embedding(
     if plan is None:
         A0 = L.tocoo()
         plan = plan_elimination(X, np.stack([A0.row, A0.col], axis=1), islands)
-    pls = _PinnedLeastSquares(L, islands, plan)
+    pls = _AnchoredLeastSquares(L, islands, plan)
     H = pls.H
     t1 = time.perf_counter()
     Y, LY, mu, _ = _ritz(L, _basis([H] if start is None else [start, H], islands), islands, block)
@@ -443,14 +455,14 @@ def spectral_embedding(
         coords[rows] = emb.coords
         mu[live, :2], done[live], change[live] = emb.eigenvalues, emb.converged, emb.change
         iterations += emb.iterations
-    timings = dict(pls.timings)
-    before_basis = pls.timings["factorization"] + (plan.seconds if own_plan else 0.0)
-    timings.update(pinned_basis=t1 - t0 - before_basis, iterations=t2 - t1)
+    timings = pls.timings
+    before_basis = timings.factorization + (plan.seconds if own_plan else 0.0)
+    timings.pinned_basis, timings.iterations = t1 - t0 - before_basis, t2 - t1
     if rest is not None:  # the islands that went on alone: their ordering and LU count as such
         sub = rest[2].timings
-        timings["ordering"] += sub["ordering"]
-        timings["factorization"] += sub["factorization"]
-        timings["iterations"] -= sub["ordering"] + sub["factorization"]
+        timings.ordering += sub.ordering
+        timings.factorization += sub.factorization
+        timings.iterations -= sub.ordering + sub.factorization
     return Embedding(coords, mu[:, :2], done, change, iterations, timings)
 
 

@@ -3,7 +3,7 @@
 As in Blender: one pin places an island (turned as an unpinned island is, to its
 principal axes), two also fix its rotation and scale (a similarity fit), and with
 refinement three or more also shape it (the pins become Dirichlet constraints of
-:func:`.refine.refine`). Before refining, the pins are moved onto their targets by a
+:func:`.refinement.refine`). Before refining, the pins are moved onto their targets by a
 harmonic deformation of the fitted layout, so the descent starts with every pin in
 place (in stages if one move would fold, see
 :func:`refine_to_pins`).
@@ -11,15 +11,20 @@ place (in stages if one move would fold, see
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
+from .align import place
 from .errors import InvalidMeshError, offenders
 from .geometry import signed_double_areas
 from .islands import Islands
+from .refinement import Refinement
 
-__all__ = ["pin_targets", "pins_spread", "fit_to_pins", "similarity", "refine_to_pins"]
+__all__ = ["Pins", "pins_on_islands", "layout_on_pins", "pin_targets", "fit_to_pins", "similarity", "refine_to_pins"]
 
 
 def pin_targets(topo, pins, n: int):
@@ -72,11 +77,6 @@ def _spread(P, w, lab, nI):
     var = np.bincount(lab, (d * d).sum(axis=1), minlength=nI)
     size = np.bincount(lab, (P * P).sum(axis=1) * w, minlength=nI)
     return mean, d, var, var > 1e-24 * np.maximum(size, 1e-300)
-
-
-def pins_spread(pinned, target, islands: Islands) -> np.ndarray:
-    """(n_islands,) bool: the island has pins, and not all on one UV."""
-    return _spread(target, pinned.astype(np.float64), islands.label, islands.n)[3]
 
 
 def fit_to_pins(Y, pinned, target, islands: Islands):
@@ -145,7 +145,7 @@ class _Deformation:
         return Y + d
 
 
-def refine_to_pins(refine, Y, faces, constrained, target, islands: Islands, stages: int = 8):
+def refine_to_pins(solve, Y, faces, constrained, target, islands: Islands, stages: int = 8):
     """Refine with the constrained pins moved onto their targets, in stages if needed.
 
     Moving every pin at once can fold the layout when the targets are far from where
@@ -154,13 +154,13 @@ def refine_to_pins(refine, Y, faces, constrained, target, islands: Islands, stag
     unfolded), and the rest of the way attempted again. Each island has its own move
     length and fold test: a fold in one island neither shortens another's move nor stops
     it. An island whose layout folds already (the four-step layout can) is refined
-    without its pins (which restarts it from an unfolded seed, see :func:`.refine.refine`)
+    without its pins (which restarts it from an unfolded seed, see :func:`.refinement.refine`)
     and fitted to them by a similarity before they are moved.
 
     Parameters
     ----------
-    refine : callable
-        ``refine(uv, pinned) -> Refinement``.
+    solve : callable
+        ``solve(uv, pinned) -> Refinement``: the refinement.
     Y : (n, 2) float64
     faces : (m, 3) int64
     constrained : (n,) bool
@@ -181,7 +181,7 @@ def refine_to_pins(refine, Y, faces, constrained, target, islands: Islands, stag
     nI = islands.n
     reached = np.bincount(lab, constrained, minlength=nI) == 0
     if reached.all():  # nothing to move: a folded start is the refinement's to repair
-        return refine(Y, constrained), reached
+        return solve(Y, constrained), reached
     face_island = lab[faces[:, 0]]
     deform = _Deformation(faces, constrained, len(Y))
     current, info, iterations = Y, None, 0
@@ -196,11 +196,12 @@ def refine_to_pins(refine, Y, faces, constrained, target, islands: Islands, stag
             continue
         trial = trial.copy()
         trial[constrained] = goal[constrained]
-        last, info = info, refine(trial, constrained & ~folded[lab])
+        last, info = info, solve(trial, constrained & ~folded[lab])
         iterations += info.iterations
         if last is not None:  # where an island was restarted again, the later seed counts
-            again = info.reseeded["conformal"] | info.reseeded["tutte"]
-            info.reseeded = {k: np.where(again, v, last.reseeded[k]) for k, v in info.reseeded.items()}
+            again = info.restarted_conformal | info.restarted_tutte
+            info.restarted_conformal = np.where(again, info.restarted_conformal, last.restarted_conformal)
+            info.restarted_tutte = np.where(again, info.restarted_tutte, last.restarted_tutte)
         current = info.uv
         reached |= fraction == 1.0
         if folded.any():  # refined without pins (and restarted): onto their pins' frame
@@ -213,7 +214,7 @@ def refine_to_pins(refine, Y, faces, constrained, target, islands: Islands, stag
         folded = _folded(current, faces, face_island, nI) & ~reached
         fraction = np.where(folded | reached, 0.0, 1.0)
     if info is None:  # every move folded: refine without the pins
-        info = refine(current, np.zeros(len(current), dtype=bool))
+        info = solve(current, np.zeros(len(current), dtype=bool))
         iterations = info.iterations
     info.iterations = iterations
     return info, reached
@@ -223,3 +224,97 @@ def _folded(uv, faces, face_island, n_islands: int) -> np.ndarray:
     """(n_islands,) bool: the island has a face of zero or negative area in ``uv``."""
     bad = signed_double_areas(uv, faces) <= 0
     return np.bincount(face_island[bad], minlength=n_islands) > 0
+
+
+@dataclass
+class Pins:
+    """The user's pins on the split vertices, and what they do to each island.
+
+    As in Blender: one pin places an island (turned as an unpinned island is, to its
+    canonical frame), two also fix its rotation and scale (a similarity fit), and with
+    refinement three or more also shape it. Several pinned vertices all on one UV place
+    the island but neither scale nor turn it.
+
+    Attributes
+    ----------
+    pinned : (n,) bool
+        Split vertices with a pin.
+    target : (n, 2) float64
+        Their UVs, in the solver's units.
+    conflicts : (n,) bool
+        Pinned vertices whose corners have different UVs (held at their mean).
+    count : (n_islands,) int64
+        Pinned split vertices per island.
+    spread : (n_islands,) bool
+        Pinned, and not all on one UV.
+    one_point : (n_islands,) bool
+        Two or more pinned mesh vertices, all on one UV.
+    shaping : (n,) bool
+        The pins that shape their island (refinement keeps them fixed).
+    """
+
+    pinned: np.ndarray
+    target: np.ndarray
+    conflicts: np.ndarray
+    count: np.ndarray
+    spread: np.ndarray
+    one_point: np.ndarray
+    shaping: np.ndarray
+
+    @property
+    def shaped(self) -> np.ndarray:
+        """(n_islands,) bool: three or more pins, not all on one UV, shape the island."""
+        return (self.count >= 3) & ~self.one_point
+
+    @property
+    def light(self) -> np.ndarray:
+        """(n_islands,) bool: pins that place the island without shaping it."""
+        return (self.count <= 2) | self.one_point
+
+
+def pins_on_islands(topo, corners, islands: Islands, unit: float, n_mesh: int) -> Pins:
+    """:class:`Pins` from per-corner input ``corners`` = (mask (m, 3), uv (m, 3, 2)) on the
+    split vertices of ``topo``; ``unit`` is the solver's length unit, ``n_mesh`` the
+    number of mesh vertices."""
+    pinned, target, conflicts = pin_targets(topo, corners, len(islands.label))
+    target = target / unit
+    count = np.bincount(islands.label, pinned, minlength=islands.n)
+    # the copies of one pinned vertex split by a seam or cut count once
+    pairs = np.unique(islands.label[pinned] * np.int64(n_mesh) + topo.vertex_of[pinned])
+    distinct = np.bincount(pairs // n_mesh, minlength=islands.n)
+    spread = _spread(target, pinned.astype(np.float64), islands.label, islands.n)[3]
+    one_point = (distinct >= 2) & ~spread
+    shaping = pinned & ((count >= 3) & ~one_point)[islands.label]
+    return Pins(pinned, target, conflicts, count, spread, one_point, shaping)
+
+
+def layout_on_pins(
+    Y: np.ndarray, faces: np.ndarray, islands: Islands, pins: Pins, solve: Callable[..., Refinement] | None
+):
+    """The layout ``Y`` (n, 2) moved onto its pins, refined with them (``solve(uv,
+    pinned) -> Refinement``) unless ``solve`` is None.
+
+    The refinement runs in the layout's own frame (mesh units, what the energy measures)
+    with the pins mapped into it; each island is then moved onto its pins. Islands the
+    pins do not shape are fitted to them again at the end (exactly, with one or two pins);
+    pins on one UV give no rotation, so such islands take the canonical frame of an
+    unpinned island rather than the eigenvectors' (arbitrary up to a half turn).
+
+    Returns ``(Y, refinement or None, reached (n_islands,) bool, held (n_islands,) bool)``:
+    whether each island's pins were all reached, and whether they fix its frame.
+    """
+    fit = fit_to_pins(Y, pins.pinned, pins.target, islands)
+    held = fit[3]
+    info, reached = None, np.ones(islands.n, dtype=bool)
+    if solve is not None:
+        local = similarity(pins.target, islands, *fit[:3], inverse=True)
+        info, reached = refine_to_pins(solve, Y, faces, pins.shaping, local, islands)
+        Y = info.uv
+    Y = similarity(Y, islands, *fit[:3])
+    unturned = pins.light & (pins.count > 0) & ~pins.spread
+    if unturned.any():  # (copies of one vertex on several UVs, split by a seam, do turn an island)
+        Y = np.where(unturned[islands.label][:, None], place(Y, islands, pack=False), Y)
+    refit = fit_to_pins(Y, pins.pinned, pins.target, islands)
+    Y = np.where(pins.light[islands.label][:, None], similarity(Y, islands, *refit[:3]), Y)
+    Y[pins.pinned] = pins.target[pins.pinned]
+    return Y, info, reached, held

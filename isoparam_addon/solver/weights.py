@@ -28,12 +28,22 @@ weights, which stay finite.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 
 from .local import Patch
 
-__all__ = ["reconstruction_weights"]
+__all__ = ["Flagged", "reconstruction_weights"]
+
+
+class Flagged(NamedTuple):
+    """Vertices of Step 2 whose weights needed help, (k,) int64 each."""
+
+    extra_vertex: np.ndarray  # borrowed a neighbour's neighbour (collinear neighbours)
+    regularized: np.ndarray  # no face to borrow from: regularised weights
+
 
 _DEGENERATE = 1e-10  # det(C) / (tr C / 2)^2 below this: neighbours (nearly) collinear
 _NEXT = np.array([1, 2, 0])
@@ -163,9 +173,8 @@ def reconstruction_weights(X, faces, twin, patches: list[Patch], n: int):
     -------
     L : (n, n) scipy.sparse.csr_matrix
         ``I - W``; every row sums to zero.
-    flagged : dict
-        ``extra_vertex``: the centres that borrowed a vertex; ``regularized``: the
-        centres left with regularised weights (no face to borrow from); (k,) int64 each.
+    flagged : Flagged
+        The centres that borrowed a vertex, and those left with regularised weights.
     """
     rows, cols, vals = [np.arange(n)], [np.arange(n)], [np.ones(n)]
 
@@ -198,4 +207,4 @@ def reconstruction_weights(X, faces, twin, patches: list[Patch], n: int):
             emit(patch.vertex[idx[sub[~good]]], nb_aug[~good], W_reg)
             regularized.append(patch.vertex[idx[sub[~good]]])
     L = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
-    return L, {"extra_vertex": np.concatenate(borrowed), "regularized": np.concatenate(regularized)}
+    return L, Flagged(np.concatenate(borrowed), np.concatenate(regularized))

@@ -107,9 +107,9 @@ def test_peaks_through_the_operator_matches_the_solver(scene, refine):
     Vb, Fb, cuv = triangle_uvs(ob)
     ours = metrics.distortion(Vb, Fb, cuv)
     ref = parametrize(V, F, refine=refine).distortion()
-    assert ours["edge_rms"] == pytest.approx(ref["edge_rms"], rel=1e-4)
-    assert ours["stretch_linf"] == pytest.approx(ref["stretch_linf"], rel=1e-3)
-    assert ours["flipped"] == 0
+    assert ours.edge_rms == pytest.approx(ref.edge_rms, rel=1e-4)
+    assert ours.stretch_linf == pytest.approx(ref.stretch_linf, rel=1e-3)
+    assert ours.flipped == 0
     assert cuv.min() >= 0 and cuv.max() <= 1  # packed into the UV square
 
 
@@ -239,7 +239,7 @@ def test_pinned_uvs_hold(scene):
     for v in pinned_verts:
         assert np.array_equal(after[cv == v], np.tile(np.float32(target[v]), (int((cv == v).sum()), 1)))
     # the island was fitted to the pins: its shape is the isometric layout
-    ref = parametrize(V, F, refine=100).distortion()["edge_rms"]
+    ref = parametrize(V, F, refine=100).distortion().edge_rms
     assert metrics.edge_rms(*triangle_uvs(ob)) == pytest.approx(ref, rel=1e-3)
 
 
@@ -717,8 +717,8 @@ def test_extra_cuts_open_a_closed_cube_towards_its_corners(scene):
         object_mode()
         V, F, uv = triangle_uvs(ob)
         measured[cuts] = metrics.distortion(V, F, uv)
-        assert measured[cuts]["flipped"] == 0  # a cut along a quad's diagonal would fold it
+        assert measured[cuts].flipped == 0  # a cut along a quad's diagonal would fold it
         edit(ob)
     # measured on bpy 5.0.1: area distortion 0.290 -> 0.053, symmetric Dirichlet 4.65 -> 4.06
-    assert measured[4]["area_distortion"] < 0.25 * measured[0]["area_distortion"]
-    assert measured[4]["symmetric_dirichlet"] < 4.2 < measured[0]["symmetric_dirichlet"]
+    assert measured[4].area_distortion < 0.25 * measured[0].area_distortion
+    assert measured[4].symmetric_dirichlet < 4.2 < measured[0].symmetric_dirichlet

@@ -63,10 +63,10 @@ def _best_builtin():
 def test_default_refinement_is_at_least_as_isometric_as_minimum_stretch(scene, name):
     ours = measure(CURVED[name], lambda: bpy.ops.uv.isometric_unwrap())
     slim = measure(CURVED[name], _best_builtin())
-    assert ours["flipped"] == 0
-    assert ours["symmetric_dirichlet"] <= slim["symmetric_dirichlet"] * (1 + 1e-6)
-    assert ours["stretch_l2"] <= slim["stretch_l2"] * (1 + 1e-6)
-    assert ours["edge_rms"] <= 1.02 * slim["edge_rms"]
+    assert ours.flipped == 0
+    assert ours.symmetric_dirichlet <= slim.symmetric_dirichlet * (1 + 1e-6)
+    assert ours.stretch_l2 <= slim.stretch_l2 * (1 + 1e-6)
+    assert ours.edge_rms <= 1.02 * slim.edge_rms
 
 
 def test_show_stretch_colours_faces(scene):

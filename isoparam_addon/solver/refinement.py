@@ -173,9 +173,9 @@ class Refinement:
     iterations : int
         Descent iterations.
     arap_iterations : int
-    reseeded : dict
-        Islands whose seed folded, by the layout that replaced it: ``{"conformal": c,
-        "tutte": t}``, (n_islands,) bool each.
+    restarted_conformal, restarted_tutte : (n_islands,) bool
+        Islands whose seed folded, by the layout that replaced it: a conformal map, or a
+        Tutte embedding where that folded too.
     folded : int
         Faces still folded at the end: 0 unless an island's seed folded and could not be
         replaced (it has pins, or even its Tutte embedding folded).
@@ -191,14 +191,15 @@ class Refinement:
     """
 
     uv: np.ndarray
-    energy: list = field(default_factory=list)
+    restarted_conformal: np.ndarray
+    restarted_tutte: np.ndarray
+    island_energy: np.ndarray
+    island_area: np.ndarray
+    island_parts: tuple[np.ndarray, np.ndarray]
+    energy: list[float] = field(default_factory=list)
     iterations: int = 0
     arap_iterations: int = 0
-    reseeded: dict = field(default_factory=dict)
     folded: int = 0
-    island_energy: np.ndarray = None
-    island_area: np.ndarray = None
-    island_parts: tuple = None
     seconds: float = 0.0
 
     def rescale(self, which: np.ndarray, scale: np.ndarray) -> None:
@@ -213,34 +214,36 @@ class Refinement:
         self.energy.append(float(self.island_energy.sum()) / max(float(self.island_area.sum()), 1e-300))
 
 
-def _reseed(X, faces, x, he_twin, islands, frames, per_face, pinned, out, order=None):
+def _reseed(X, faces, x, he_twin, islands, frames, per_face, pinned, order=None):
     """Replace the seed of islands that fold or collapse (and have no pins) by a
-    conformal map, or by a Tutte embedding where that folds too. Returns the new seed and
-    the islands that are still folded.
+    conformal map, or by a Tutte embedding where that folds too.
 
     Collapsed means a face whose UV area is below ``_COLLAPSED`` times its 3D area: a
-    descent from there spends its iterations on the energy's singularity (measured:
-    Suzanne without seams, cut automatically, Step 4 fits a degenerate scale and the
-    layout holds triangles of 1e-9 their area; 100 iterations left the energy at 4e17).
+    descent from there spends its iterations on the energy's singularity.
+
+    Returns the new seed, the islands still folded, and those restarted from a
+    conformal map and from a Tutte embedding, (n_islands,) bool each.
     """
     det = signed_double_areas(x, faces) / (2.0 * frames.area)
     poor = per_face.sum(det <= _COLLAPSED) > 0
     bad = poor & (np.bincount(islands.label, pinned, minlength=islands.n) == 0)
-    for name, floor in (("conformal", _COLLAPSED), ("tutte", 0.0)):
-        if not bad.any():
-            break
-        try:
-            if name == "conformal":
-                y = lscm(X, faces, islands, frames, bad, order)
-            else:
-                y = tutte(X, faces, he_twin, islands, frames, bad, order)
-        except RuntimeError:  # SuperLU: "Factor is exactly singular"; they stay as they are
-            continue
-        ok = bad & (per_face.sum(signed_double_areas(y, faces) <= floor * 2.0 * frames.area) == 0)
-        x = np.where(ok[islands.label][:, None], y, x)
-        out.reseeded[name] = ok
-        bad &= ~ok
-    return x, per_face.sum(signed_double_areas(x, faces) <= 0) > 0
+    restarted = []
+    for seed, floor in ((lscm, _COLLAPSED), (tutte, 0.0)):
+        ok = np.zeros(islands.n, dtype=bool)
+        if bad.any():
+            try:
+                if seed is lscm:
+                    y = lscm(X, faces, islands, frames, bad, order)
+                else:
+                    y = tutte(X, faces, he_twin, islands, frames, bad, order)
+            except RuntimeError:  # SuperLU: "Factor is exactly singular"; they stay as they are
+                y = None
+            if y is not None:
+                ok = bad & (per_face.sum(signed_double_areas(y, faces) <= floor * 2.0 * frames.area) == 0)
+                x = np.where(ok[islands.label][:, None], y, x)
+                bad &= ~ok
+        restarted.append(ok)
+    return x, per_face.sum(signed_double_areas(x, faces) <= 0) > 0, restarted[0], restarted[1]
 
 
 @dataclass
@@ -348,10 +351,19 @@ def refine(
     frames, H, perm, lu = proxy.frames, proxy.H, proxy.perm, proxy.lu
     area = frames.area
     per_face = Islands.labelled(islands.label[faces[:, 0]], islands.n)
-    out = Refinement(uv=np.array(uv, dtype=np.float64, copy=True))
-    out.reseeded = {name: np.zeros(islands.n, dtype=bool) for name in ("conformal", "tutte")}
+    none = np.zeros(islands.n, dtype=bool)
+    out = Refinement(
+        np.array(uv, dtype=np.float64, copy=True),
+        none,
+        none,
+        np.zeros(islands.n),
+        np.zeros(islands.n),
+        (np.zeros(islands.n), np.zeros(islands.n)),
+    )
     if carry is None:
-        x, stuck = _reseed(X, faces, out.uv, he_twin, islands, frames, per_face, pinned, out, order)
+        x, stuck, out.restarted_conformal, out.restarted_tutte = _reseed(
+            X, faces, out.uv, he_twin, islands, frames, per_face, pinned, order
+        )
     else:
         x, stuck = out.uv, np.zeros(islands.n, dtype=bool)
     # islands that still fold, and islands with nothing free, are left as they are

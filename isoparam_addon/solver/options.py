@@ -1,0 +1,81 @@
+"""How to solve: the options of :func:`.parametrize`, and the mesh data it is given."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["Options", "Problem"]
+
+
+@dataclass(frozen=True)
+class Options:
+    """Every knob of :func:`.parametrize`.
+
+    Attributes
+    ----------
+    pack : bool
+        Place islands side by side without overlap (mesh units). If False every island
+        is centred at the origin in its own frame.
+    margin : float
+        Gap between packed islands, as a fraction of the square root of their total area.
+    tol, max_iter :
+        Convergence of Step 3 (sine of the subspace change) and its iteration cap.
+    split_bowties : bool
+        Split vertices whose faces form several fans (bow-ties; faces touching at one
+        vertex go to different islands, as in Blender) instead of raising.
+    refine : int
+        Iterations of isometric refinement (symmetric Dirichlet, no folds; see
+        :mod:`.refinement`) after the four steps. 0 is the paper's method.
+    extra_cuts : int
+        Islands that had to be cut automatically (closed, handles, holes) get up to this
+        many more cuts while they help (see :mod:`.cuts`). 0: the shortest cut that
+        opens the island, nothing more.
+    """
+
+    pack: bool = True
+    margin: float = 0.02
+    tol: float = 1e-8
+    max_iter: int = 40
+    split_bowties: bool = False
+    refine: int = 0
+    extra_cuts: int = 0
+
+
+@dataclass(frozen=True)
+class Problem:
+    """The mesh data of one solve, as the caller gave it (validated by the topology).
+
+    Attributes
+    ----------
+    vertices : (n, 3) array_like of float
+    faces : (m, 3) array_like of int
+    seams : (k, 2) array_like of int or None
+        Vertex pairs of edges to cut along.
+    inner_edges : (k, 2) array_like of int or None
+        Vertex pairs of edges that automatic cuts avoid (polygon diagonals, and the edges
+        at pinned vertices).
+    pins : (corners (m, 3) bool, uv (m, 3, 2) float) or None
+        Face corners whose UV is given.
+    """
+
+    vertices: npt.ArrayLike
+    faces: npt.ArrayLike
+    seams: npt.ArrayLike | None = None
+    inner_edges: npt.ArrayLike | None = None
+    pins: tuple[npt.ArrayLike, npt.ArrayLike] | None = None
+
+    def pinned_vertices(self) -> np.ndarray | None:
+        """The mesh vertices with a pinned corner, or None (no pins, or input that
+        validation will reject: it is passed on as it is)."""
+        if self.pins is None:
+            return None
+        try:
+            F, mask = np.asarray(self.faces), np.asarray(self.pins[0], dtype=bool)
+        except (TypeError, ValueError, IndexError, KeyError):
+            return None
+        if F.ndim != 2 or F.shape[1:] != (3,) or F.dtype.kind not in "iu" or mask.shape != F.shape or not mask.any():
+            return None
+        return np.unique(F[mask]).astype(np.int64)

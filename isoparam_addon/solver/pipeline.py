@@ -1,0 +1,193 @@
+"""One solve, top to bottom: topology, the paper's four steps, refinement, placement.
+
+Sun & Hancock's method (:mod:`.local`, :mod:`.weights`, :mod:`.embed`, :mod:`.align`)
+lays out every island of the mesh at once; the refinement (:mod:`.refinement`) and the
+pins (:mod:`.pins`) go beyond the paper, and :mod:`.align` places the islands.
+
+Two pieces of work need no weights and run beside Steps 1-3 on large meshes (SuperLU
+and numpy release the GIL): Step 3's elimination plan, and the refinement's factored
+proxy, which needs the plan's order.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ._parallel import background
+from .align import fit_rotation_scale, orient, place
+from .embed import Embedding, plan_elimination, spectral_embedding
+from .geometry import edge_lengths, signed_areas
+from .islands import Islands
+from .local import local_flattening
+from .mesh import unit_of
+from .options import Options, Problem
+from .pins import Pins, layout_on_pins, pins_on_islands
+from .refinement import Proxy, Refinement, quadratic_proxy, refine
+from .report import IslandReport, Stats, Timings, opened, warnings
+from .result import Parametrization, per_corner_and_vertex
+from .topology import Topology, build_topology
+from .weights import Flagged, reconstruction_weights
+
+__all__ = ["solve"]
+
+_BACKGROUND_FROM = 20_000  # vertices; below this a second thread costs more than it saves
+
+
+class _Clock:
+    """Seconds per step: :meth:`lap` adds the time since the last lap to a step."""
+
+    def __init__(self):
+        self.start = self.last = time.perf_counter()
+        self.timings = Timings()
+
+    def lap(self, step: str) -> None:
+        now = time.perf_counter()
+        setattr(self.timings, step, getattr(self.timings, step) + now - self.last)
+        self.last = now
+
+
+def solve(problem: Problem, options: Options) -> Parametrization:
+    """Parametrize ``problem`` with ``options`` (see :func:`.parametrize`)."""
+    clock = _Clock()
+    # a closed island's cut loops all meet at its root: never a pinned vertex if it can be helped
+    V, F, topo = build_topology(
+        problem.vertices,
+        problem.faces,
+        problem.seams,
+        options.split_bowties,
+        problem.inner_edges,
+        problem.pinned_vertices(),
+    )
+    unit = unit_of(V)  # work in units of a power of two near the mesh's size (exact)
+    X = V[topo.vertex_of] / unit
+    islands = Islands(topo.vertex_island, topo.n_islands)
+    pins = None if problem.pins is None else pins_on_islands(topo, problem.pins, islands, unit, len(V))
+    clock.lap("topology")
+    with background(len(X) > _BACKGROUND_FROM) as worker:
+        plan = worker.submit(plan_elimination, X, topo.he.edge_vertices, islands)
+        if options.refine:
+            proxy = worker.submit(_proxy, X, topo.faces, islands, None if pins is None else pins.shaping, plan)
+        patches = local_flattening(X, topo.faces, topo.fans)  # Step 1
+        clock.lap("local")
+        L, flagged = reconstruction_weights(X, topo.faces, topo.he.twin, patches, len(X))  # Step 2
+        clock.lap("weights")
+        plan = plan.result()
+        emb = spectral_embedding(L, X, islands, tol=options.tol, max_iter=options.max_iter, plan=plan)  # Step 3
+        clock.lap("embedding")
+        proxy = proxy.result() if options.refine else None
+        clock.lap("refine")  # waiting for the proxy, if it outlasted Step 3
+    edges = topo.he.edge_vertices  # Step 4
+    Y, _, clipped = fit_rotation_scale(emb.coords, edges, edge_lengths(X, edges), islands.label[edges[:, 0]], islands)
+    Y = orient(Y, topo.faces, topo.face_island, islands)
+    clock.lap("align")
+
+    order = np.concatenate([plan.free_order, plan.anchors.ravel()])
+
+    def refined(seed: np.ndarray, fixed: np.ndarray | None) -> Refinement:
+        return refine(
+            X,
+            topo.faces,
+            seed,
+            islands,
+            topo.he.twin,
+            iterations=options.refine,
+            pinned=fixed,
+            order=order,
+            proxy=proxy,
+        )
+
+    solve_refined = refined if options.refine else None
+    held = reached = None
+    info = None
+    if pins is not None:
+        Y, info, reached, held = layout_on_pins(Y, topo.faces, islands, pins, solve_refined)
+    elif solve_refined is not None:
+        info = solve_refined(Y, None)
+        Y = info.uv
+    clock.lap("refine")
+    placed = place(Y, islands, pack=options.pack, margin=options.margin, fixed=held)
+    # of the layout as returned (up to the power-of-two unit, which keeps every sign):
+    # moving an island rounds a face of 1e-26 the mesh's area to clockwise or nothing
+    flipped = signed_areas(placed, topo.faces) <= 0
+    corner_uv, uv, unused = per_corner_and_vertex(placed * unit, topo, len(V))
+    clock.lap("placement")
+    report = _island_report(islands, emb, clipped, flagged, pins, held, reached, info, unit)
+    stats = Stats(vertices=len(V), faces=len(F), split_vertices=len(X), iterations=emb.iterations)
+    stats.count(report)
+    if info is not None:
+        stats.refine_iterations, stats.refine_energy = info.iterations, info.energy
+    _embedding_timings(clock.timings, emb)
+    clock.timings.total = time.perf_counter() - clock.start
+    return Parametrization(
+        uv=uv,
+        corner_uv=corner_uv,
+        face_island=topo.face_island,
+        n_islands=topo.n_islands,
+        cut_edges=topo.cut_edges,
+        cut_islands=topo.cut_islands,
+        flipped=flipped,
+        eigenvalues=emb.eigenvalues,
+        converged=emb.converged,
+        islands=report,
+        vertices=V,
+        faces=F,
+        turned=topo.flipped,
+        warnings=opened_warnings(topo) + warnings(report, emb.converged, flipped, unused),
+        timings=clock.timings,
+        stats=stats,
+    )
+
+
+def opened_warnings(topo: Topology):
+    """The warnings for the islands ``topo`` cut open."""
+    return opened(topo.closed_islands, topo.handle_islands, topo.multi_boundary_islands, topo.nonorientable_islands)
+
+
+def _proxy(X, faces, islands: Islands, pinned, plan) -> Proxy:
+    """The refinement's factored proxy, in Step 3's elimination order (``plan`` is a future
+    of the same one-worker pool, so it has finished when this task starts)."""
+    plan = plan.result()
+    return quadratic_proxy(X, faces, islands, pinned, np.concatenate([plan.free_order, plan.anchors.ravel()]))
+
+
+def _island_report(
+    islands: Islands,
+    emb: Embedding,
+    clipped,
+    flagged: Flagged,
+    pins: Pins | None,
+    held,
+    reached,
+    info: Refinement | None,
+    unit: float,
+) -> IslandReport:
+    """The per-island facts of one solve."""
+    k = islands.n
+    never = np.zeros(k, dtype=bool)
+    return IslandReport(
+        change=emb.change,
+        clipped=clipped,
+        extra_vertex=np.bincount(islands.label[flagged.extra_vertex], minlength=k),
+        regularized=np.bincount(islands.label[flagged.regularized], minlength=k),
+        held=never if held is None else held,
+        one_point=never if pins is None else pins.one_point,
+        pin_conflicts=np.zeros(k, dtype=np.int64)
+        if pins is None
+        else np.bincount(islands.label, pins.conflicts, minlength=k).astype(np.int64),
+        shaped=never if pins is None else pins.shaped,
+        reached=np.ones(k, dtype=bool) if reached is None else reached,
+        conformal=never if info is None else info.restarted_conformal,
+        tutte=never if info is None else info.restarted_tutte,
+        # in mesh units: another solve of some of these islands has another unit
+        refine_energy=np.zeros(k) if info is None else info.island_energy * unit**2,
+        refine_area=np.zeros(k) if info is None else info.island_area * unit**2,
+    )
+
+
+def _embedding_timings(timings: Timings, emb: Embedding) -> None:
+    timings.embedding_ordering = emb.timings.ordering
+    timings.embedding_factorization = emb.timings.factorization
+    timings.embedding_pinned_basis = emb.timings.pinned_basis
+    timings.embedding_iterations = emb.timings.iterations
