@@ -19,8 +19,8 @@ import pytest
 
 from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import parametrize
-from isoparam_addon.solver.align import canonical_turn
 from isoparam_addon.solver.islands import Islands
+from isoparam_addon.solver.placement import canonical_turn
 from tests.conftest import procrustes_error
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -110,7 +110,7 @@ def _renumbered_result(V, F, seams, rng):
     "make", [lambda: ex.peaks(41), lambda: ex.s_surface_random(600, 3)[:2]], ids=["peaks", "s_random"]
 )
 def test_the_same_uvs_whatever_the_vertex_numbering(make, rng):
-    # asymmetric islands: their frame is decided by their shape alone (align.canonical_turn)
+    # asymmetric islands: their frame is decided by their shape alone (placement.canonical_turn)
     a, back = _renumbered_result(*make(), None, rng)
     assert _relative(a.corner_uv, back) < 1e-9
 

@@ -69,3 +69,16 @@ def test_seam_edges_count_once_per_side():
     cuv[0] += 10.0  # detach face 0: its interior edges now count once per side
     l3b, _ = metrics.edge_lengths(V, F, cuv)
     assert len(l3b) > len(l3)
+
+
+def test_stretch_summary_has_the_analytic_values_and_combines_by_area():
+    V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=np.float64)
+    F = np.array([[0, 1, 2], [0, 2, 3]])
+    true = V[F][:, :, :2]
+    wide = true * [2.0, 1.0]  # u doubled: after the area-preserving scale, sigma = (sqrt 2, 1/sqrt 2)
+    a, b = metrics.face_stretch(V, F, true)[1], metrics.face_stretch(2 * V, F, 2 * wide)[1]  # areas 1 and 4
+    assert a.worst == pytest.approx(1.0) and a.mean == pytest.approx(1.0) and a.area == pytest.approx(1.0)
+    assert b.worst == pytest.approx(np.sqrt(2)) and b.mean == pytest.approx(np.sqrt(2)) and b.area == pytest.approx(4.0)
+    both = metrics.combine_stretch([a, b])
+    assert both.worst == pytest.approx(np.sqrt(2))
+    assert both.mean == pytest.approx((1.0 + 4.0 * np.sqrt(2)) / 5.0)  # weighted by 3D area

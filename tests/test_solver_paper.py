@@ -250,7 +250,7 @@ def test_an_island_that_converges_slowly_goes_on_alone(monkeypatch):
     assert r.eigenvalues[box] == pytest.approx(alone.eigenvalues[0], rel=1e-6)
     assert r.stats.iterations < alone.stats.iterations
     # the layouts agree up to where the packing put them: Step 4 makes them unique up to a
-    # rigid motion, and the box's turn is canonical (align.canonical_turn)
+    # rigid motion, and the box's turn is canonical (placement.canonical_turn)
     mine = r.face_island == box
     ours, theirs = r.corner_uv[mine].reshape(-1, 2), alone.corner_uv.reshape(-1, 2)
     assert np.abs((ours - ours.mean(axis=0)) - (theirs - theirs.mean(axis=0))).max() < 1e-6 * np.ptp(theirs)

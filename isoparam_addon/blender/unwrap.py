@@ -13,11 +13,14 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ..solver import InvalidMeshError, parametrize
+from ..solver import InvalidMeshError, metrics, parametrize
 from ..solver.errors import counted, offenders
-from . import layout, mesh_io, stretch
+from ..solver.placement import FAR, place_in_uv_space
+from . import mesh_io
 
-__all__ = ["Options", "run"]
+__all__ = ["STRETCH_ATTRIBUTE", "Options", "run", "show_stretch"]
+
+STRETCH_ATTRIBUTE = "isoparam_stretch"  # the face colour attribute Show Stretch writes
 
 
 @dataclass
@@ -193,7 +196,7 @@ class _Solved:
     held: np.ndarray
     n_islands: int
     distortion: np.ndarray  # (t,) per unwrapped triangle
-    stretch: stretch.Summary
+    stretch: metrics.StretchSummary
     warnings: list
 
 
@@ -218,8 +221,8 @@ def run(op, context, opts: Options) -> set:
                     _write_stretch(s.obj.data, s.sel, s.distortion)
             held = any(s.held.any() for s in solved)
             # (a corner locked by the UV selection may keep a UV that is not finite)
-            far = any(not (np.abs(s.corner_uv) <= layout.FAR).all() for s in solved)
-            # a single island was fitted into the unit square by layout.place already
+            far = any(not (np.abs(s.corner_uv) <= FAR).all() for s in solved)
+            # a single island was fitted into the unit square by place_in_uv_space already
             # (Blender's pack would spend 0.17 s on it at 100k vertices)
             pack = opts.pack and not far and (sum(s.n_islands for s in solved) > 1 or held)
             # what the pack changes besides the UVs, kept while the mesh arrays are at hand
@@ -230,7 +233,7 @@ def run(op, context, opts: Options) -> set:
     if far and opts.pack:  # Blender's packer makes NaN of such UVs, or crashes
         op.report(
             {"WARNING"},
-            f"Isometric Unwrap: not packed: UVs beyond {layout.FAR:.0e} or not finite (far pins, world scale, "
+            f"Isometric Unwrap: not packed: UVs beyond {FAR:.0e} or not finite (far pins, world scale, "
             "or a kept corner)",
         )
     if pack:
@@ -330,7 +333,7 @@ def _solve(sel: mesh_io.Selection, opts: Options):
     locked = sel.locked[sel.tri_loops]
     old = np.take(sel.uv, sel.tri_loops, axis=0).astype(np.float64)
     # a corner locked by the UV selection whose UV is not finite holds nothing in place: it
-    # keeps its value (layout.place) and its vertex is laid out as free, as by uv.unwrap;
+    # keeps its value (place_in_uv_space) and its vertex is laid out as free, as by uv.unwrap;
     # a real pin there is an error (the solver names it)
     hold = locked & (np.isfinite(old).all(axis=2) | sel.pinned[sel.tri_loops])
     res = parametrize(
@@ -383,7 +386,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             return None
         wm.progress_update(len(objects) + k)
         aspect = _aspect(ob, sel) if opts.correct_aspect else None
-        uv, held = layout.place(
+        uv, held = place_in_uv_space(
             res.corner_uv,
             res.face_island,
             res.n_islands,
@@ -403,7 +406,8 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
                 "(True World Scale on a mesh this large?). Nothing was changed",
             )
             return None
-        solved.append(_Solved(ob, sel, uv, held, res.n_islands, *stretch.measure(sel.V, sel.F, uv), _warnings(res)))
+        per_face, summary = metrics.face_stretch(sel.V, sel.F, uv)
+        solved.append(_Solved(ob, sel, uv, held, res.n_islands, per_face, summary, _warnings(res)))
     return solved
 
 
@@ -423,13 +427,13 @@ def _write_stretch(me, sel: mesh_io.Selection, distortion: np.ndarray) -> None:
     faces, inverse = np.unique(sel.tri_poly, return_inverse=True)
     worst = np.zeros(len(faces))
     np.maximum.at(worst, inverse, distortion)
-    mesh_io.write_face_colours(me, stretch.ATTRIBUTE, stretch.colours(worst), faces)
+    mesh_io.write_face_colours(me, STRETCH_ATTRIBUTE, metrics.stretch_colours(worst), faces)
 
 
 def _warnings(res) -> list[str]:
     """The solver's warnings, as they hold for what the operator writes: the solver holds a
     vertex whose corners are pinned to different UVs at their mean, but pins never move here
-    (``layout.place`` puts every pinned corner back on its own UV)."""
+    (``place_in_uv_space`` puts every pinned corner back on its own UV)."""
     out = [w.text for w in res.warnings if w.kind != "pin_conflict"]
     if res.stats.pin_conflicts:
         out.append(
@@ -443,7 +447,7 @@ def _warnings(res) -> list[str]:
 
 def _report(op, solved, seconds: float) -> None:
     islands = sum(s.n_islands for s in solved)
-    worst, mean, _ = stretch.combine([s.stretch for s in solved])
+    worst, mean, _ = metrics.combine_stretch([s.stretch for s in solved])
     where = f" on {len(solved)} meshes" if len(solved) > 1 else ""
     op.report(
         {"INFO"},
@@ -465,16 +469,16 @@ def show_stretch(op, context) -> set:
                 continue
             sel = mesh_io.read_selection(ob, world_space=False, uv_selection_locks=False, every_face=True)
             cuv = sel.uv[sel.tri_loops].astype(np.float64)
-            d, part = stretch.measure(sel.V, sel.F, cuv)
+            d, part = metrics.face_stretch(sel.V, sel.F, cuv)
             _write_stretch(me, sel, d)
             parts.append(part)
     if not parts:
         op.report({"ERROR"}, "Show Stretch: no mesh in edit mode has a UV map")
         return {"CANCELLED"}
-    worst, mean, _ = stretch.combine(parts)
+    worst, mean, _ = metrics.combine_stretch(parts)
     op.report(
         {"INFO"},
         f"Show Stretch: worst {worst:.2f}, mean {mean:.3f} "
-        f"(colour attribute '{stretch.ATTRIBUTE}': white 1, red 2 or more)",
+        f"(colour attribute '{STRETCH_ATTRIBUTE}': white 1, red 2 or more)",
     )
     return {"FINISHED"}

@@ -26,12 +26,12 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .align import pack_islands
 from .geometry import corner_signed_areas, face_areas, signed_areas
 from .islands import Islands
 from .mesh import HalfEdges, edge_mask, unit_of
 from .options import Options, Problem
 from .pipeline import opened_warnings, solve
+from .placement import pack_islands
 from .report import lowered, warnings
 from .result import Parametrization, per_corner_and_vertex
 from .topology import build_topology

@@ -18,13 +18,13 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from .align import place
 from .errors import InvalidMeshError, offenders
 from .geometry import signed_double_areas
 from .islands import Islands
+from .placement import apply_similarity, place, similarity_fit
 from .refinement import Refinement
 
-__all__ = ["Pins", "pins_on_islands", "layout_on_pins", "pin_targets", "fit_to_pins", "similarity", "refine_to_pins"]
+__all__ = ["Pins", "layout_on_pins", "pin_targets", "pins_on_islands", "refine_to_pins"]
 
 
 def pin_targets(topo, pins, n: int):
@@ -65,55 +65,6 @@ def pin_targets(topo, pins, n: int):
     off = np.bincount(v, ((given - target[v]) ** 2).sum(axis=1), minlength=n)
     scale = float(np.abs(given).max(initial=0.0))
     return count > 0, target, off > (1e-9 * scale) ** 2 * count
-
-
-def _spread(P, w, lab, nI):
-    """Per island: the centroid of the points of P with weight 1 (nI, 2), their offsets
-    from it (n, 2; zero where w is 0), the sum of squared offsets (nI,), and whether
-    they are not all one point to rounding (nI,) bool."""
-    tot = np.maximum(np.bincount(lab, w, minlength=nI), 1.0)  # w is 0 or 1
-    mean = np.stack([np.bincount(lab, P[:, c] * w, minlength=nI) for c in range(2)], 1) / tot[:, None]
-    d = (P - mean[lab]) * w[:, None]
-    var = np.bincount(lab, (d * d).sum(axis=1), minlength=nI)
-    size = np.bincount(lab, (P * P).sum(axis=1) * w, minlength=nI)
-    return mean, d, var, var > 1e-24 * np.maximum(size, 1e-300)
-
-
-def fit_to_pins(Y, pinned, target, islands: Islands):
-    """Per island with pins: the similarity (or, with one pin, the shift) onto them.
-
-    Returns ``(scale (k,), angle (k,), shift (k, 2), held (k,) bool)`` per island, the
-    map being ``y -> scale * R(angle) y + shift``; the identity where ``held`` is False.
-    Where the pins' targets coincide (they give no rotation and no scale) the island is
-    only shifted, as with one pin, rather than shrunk to a point.
-    """
-    w = pinned.astype(np.float64)
-    lab = islands.label
-    nI = islands.n
-    held = np.bincount(lab, w, minlength=nI) > 0
-    ms, a, var, spread = _spread(Y, w, lab, nI)
-    md, b, _, apart = _spread(target, w, lab, nI)
-    spread &= apart
-    dot = np.bincount(lab, (a * b).sum(axis=1), minlength=nI)
-    cross = np.bincount(lab, a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], minlength=nI)
-    angle = np.where(spread, np.arctan2(cross, dot), 0.0)
-    scale = np.where(spread, np.hypot(dot, cross) / np.where(spread, var, 1.0), 1.0)
-    c, si = np.cos(angle), np.sin(angle)
-    shift = md - scale[:, None] * np.stack([c * ms[:, 0] - si * ms[:, 1], si * ms[:, 0] + c * ms[:, 1]], 1)
-    shift = np.where(held[:, None], shift, 0.0)
-    return scale, angle, shift, held
-
-
-def similarity(Y, islands: Islands, scale, angle, shift, inverse=False):
-    """Apply the per-island map ``y -> scale R(angle) y + shift`` (or its inverse) to Y (n, 2)."""
-    lab = islands.label
-    s, th, t = scale[lab], angle[lab], shift[lab]
-    if inverse:
-        Y = Y - t
-        s, th = 1.0 / s, -th
-    c, si = np.cos(th), np.sin(th)
-    out = np.stack([c * Y[:, 0] - si * Y[:, 1], si * Y[:, 0] + c * Y[:, 1]], 1) * s[:, None]
-    return out if inverse else out + t
 
 
 class _Deformation:
@@ -205,10 +156,10 @@ def refine_to_pins(solve, Y, faces, constrained, target, islands: Islands, stage
         current = info.uv
         reached |= fraction == 1.0
         if folded.any():  # refined without pins (and restarted): onto their pins' frame
-            fit = fit_to_pins(current, constrained & folded[lab], target, islands)
-            current = np.where(folded[lab][:, None], similarity(current, islands, *fit[:3]), current)
+            fit = similarity_fit(current, target, islands, constrained & folded[lab])
+            current = np.where(folded[lab][:, None], apply_similarity(current, islands, fit), current)
             info.uv = current
-            info.rescale(folded, fit[0])  # the energy of the layout returned, if it is the last
+            info.rescale(folded, fit.scale)  # the energy of the layout returned, if it is the last
         if reached.all():
             break
         folded = _folded(current, faces, face_island, nI) & ~reached
@@ -282,7 +233,7 @@ def pins_on_islands(topo, corners, islands: Islands, unit: float, n_mesh: int) -
     # the copies of one pinned vertex split by a seam or cut count once
     pairs = np.unique(islands.label[pinned] * np.int64(n_mesh) + topo.vertex_of[pinned])
     distinct = np.bincount(pairs // n_mesh, minlength=islands.n)
-    spread = _spread(target, pinned.astype(np.float64), islands.label, islands.n)[3]
+    spread = similarity_fit(target, target, islands, pinned).ok  # pinned, and not all on one UV
     one_point = (distinct >= 2) & ~spread
     shaping = pinned & ((count >= 3) & ~one_point)[islands.label]
     return Pins(pinned, target, conflicts, count, spread, one_point, shaping)
@@ -303,18 +254,18 @@ def layout_on_pins(
     Returns ``(Y, refinement or None, reached (n_islands,) bool, held (n_islands,) bool)``:
     whether each island's pins were all reached, and whether they fix its frame.
     """
-    fit = fit_to_pins(Y, pins.pinned, pins.target, islands)
-    held = fit[3]
+    fit = similarity_fit(Y, pins.target, islands, pins.pinned)
+    held = pins.count > 0
     info, reached = None, np.ones(islands.n, dtype=bool)
     if solve is not None:
-        local = similarity(pins.target, islands, *fit[:3], inverse=True)
+        local = apply_similarity(pins.target, islands, fit, inverse=True)
         info, reached = refine_to_pins(solve, Y, faces, pins.shaping, local, islands)
         Y = info.uv
-    Y = similarity(Y, islands, *fit[:3])
+    Y = apply_similarity(Y, islands, fit)
     unturned = pins.light & (pins.count > 0) & ~pins.spread
     if unturned.any():  # (copies of one vertex on several UVs, split by a seam, do turn an island)
         Y = np.where(unturned[islands.label][:, None], place(Y, islands, pack=False), Y)
-    refit = fit_to_pins(Y, pins.pinned, pins.target, islands)
-    Y = np.where(pins.light[islands.label][:, None], similarity(Y, islands, *refit[:3]), Y)
+    refit = similarity_fit(Y, pins.target, islands, pins.pinned)  # islands with one or two pins: exact
+    Y = np.where(pins.light[islands.label][:, None], apply_similarity(Y, islands, refit), Y)
     Y[pins.pinned] = pins.target[pins.pinned]
     return Y, info, reached, held

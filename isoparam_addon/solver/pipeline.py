@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from ._parallel import background
-from .align import fit_rotation_scale, orient, place
+from .align import fit_rotation_scale, orient
 from .embed import Embedding, plan_elimination, spectral_embedding
 from .geometry import edge_lengths, signed_areas
 from .islands import Islands
@@ -24,6 +24,7 @@ from .local import local_flattening
 from .mesh import unit_of
 from .options import Options, Problem
 from .pins import Pins, layout_on_pins, pins_on_islands
+from .placement import place
 from .refinement import Proxy, Refinement, quadratic_proxy, refine
 from .report import IslandReport, Stats, Timings, opened, warnings
 from .result import Parametrization, per_corner_and_vertex

@@ -102,18 +102,3 @@ def test_show_stretch_is_white_on_a_developable_mesh(scene):
     rgba = np.empty(4 * len(ob.data.loops), np.float32)
     ob.data.color_attributes["isoparam_stretch"].data.foreach_get("color", rgba)
     assert np.allclose(rgba, 1.0, atol=1e-3)
-
-
-def test_stretch_summary_has_the_analytic_values_and_combines_by_area():
-    from isoparam_addon.blender import stretch
-
-    V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=np.float64)
-    F = np.array([[0, 1, 2], [0, 2, 3]])
-    true = V[F][:, :, :2]
-    wide = true * [2.0, 1.0]  # u doubled: after the area-preserving scale, sigma = (sqrt 2, 1/sqrt 2)
-    a, b = stretch.summary(V, F, true), stretch.summary(2 * V, F, 2 * wide)  # areas 1 and 4
-    assert a.worst == pytest.approx(1.0) and a.mean == pytest.approx(1.0) and a.area == pytest.approx(1.0)
-    assert b.worst == pytest.approx(np.sqrt(2)) and b.mean == pytest.approx(np.sqrt(2)) and b.area == pytest.approx(4.0)
-    both = stretch.combine([a, b])
-    assert both.worst == pytest.approx(np.sqrt(2))
-    assert both.mean == pytest.approx((1.0 + 4.0 * np.sqrt(2)) / 5.0)  # weighted by 3D area
