@@ -24,7 +24,6 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
 STEPS = [
     ("topology", "topology"),
@@ -42,7 +41,7 @@ STEPS = [
 
 def make_mesh(kind: str, n_target: int):
     """Vertices, faces and the edges automatic cuts avoid (polygon diagonals, or None)."""
-    from isoparam_addon.solver import examples as ex
+    from isoparam_eval import meshes as ex
 
     if kind == "peaks_box":  # a disk beside a closed island (the box's cut is grown by extra cuts)
         (Vp, Fp, _), (Vb, Fb, D) = make_mesh("peaks", n_target), ex.box(8)

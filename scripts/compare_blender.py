@@ -20,27 +20,19 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
+import isoparam_addon
+from isoparam_addon.blender import mesh_io
+from isoparam_addon.solver import metrics
+from isoparam_eval import meshes as ex
+from isoparam_eval.blender import METHODS, add_mesh, bpy, edit, read_uvs, render, suzanne
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "scripts"))
-_home = tempfile.TemporaryDirectory(prefix="isoparam-compare-")  # removed at exit
-os.environ.setdefault("BLENDER_USER_RESOURCES", _home.name)
-
-import bpy  # noqa: E402
-from blender_util import METHODS, add_object, edit, read_uvs, render, suzanne  # noqa: E402
-
-import isoparam_addon  # noqa: E402
-from isoparam_addon.blender import mesh_io  # noqa: E402
-from isoparam_addon.solver import examples as ex  # noqa: E402
-from isoparam_addon.solver import metrics  # noqa: E402
 
 MESHES = {  # name: (title, () -> (V, F, seams or None))
     "peaks41": ("peaks 41x41, z/3", lambda: (*ex.peaks(41), None)),
@@ -76,7 +68,7 @@ def measure(name, V, F, seams, methods, repeat, slow_repeat, render_dir=None):
     rows = {}
     for method in methods:
         bpy.ops.wm.read_homefile(use_empty=True)
-        ob = add_object(name, V, F, seams)
+        ob = add_mesh(name, V, F, seams)
         edit(ob)
         slow = not method.startswith("isoparam") and len(V) > 20_000
         runs = slow_repeat if slow else repeat
@@ -127,7 +119,7 @@ def io_benchmark(repeat: int) -> str:
     """Read (selection, seams, UVs, triangles) and write UVs of a 1M-corner mesh."""
     bpy.ops.wm.read_homefile(use_empty=True)
     V, F = ex.peaks(409)  # 167k vertices, 333k triangles, 1.0M corners
-    ob = add_object("io", V, F)
+    ob = add_mesh("io", V, F)
     ob.data.uv_layers.new(name="UVMap")
     reads, writes = [], []
     for _ in range(repeat):  # timed runs

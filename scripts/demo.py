@@ -17,29 +17,20 @@ Run through ``bash scripts/demo.sh``, which sets up the environment first.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 
+import isoparam_addon
+from isoparam_addon.solver import metrics
+from isoparam_eval import meshes as ex
+from isoparam_eval.blender import METHODS, add_mesh, bpy, edit, read_uvs, render
+from isoparam_eval.figures import draw_layout, draw_stretch, stretch_key
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "scripts"))
-_home = tempfile.TemporaryDirectory(prefix="isoparam-demo-")  # removed at exit
-os.environ.setdefault("BLENDER_USER_RESOURCES", _home.name)
-
-import bpy  # noqa: E402
-import matplotlib.pyplot as plt  # noqa: E402
-from blender_util import METHODS, add_object, edit, read_uvs, render  # noqa: E402
-from figures import draw_layout, draw_stretch, stretch_key  # noqa: E402
-
-import isoparam_addon  # noqa: E402
-from isoparam_addon.blender import stretch  # noqa: E402
-from isoparam_addon.solver import examples as ex  # noqa: E402
-from isoparam_addon.solver import metrics  # noqa: E402
 
 MESHES = {  # file stem: (title, mesh, camera elevation)
     "peaks": ("peaks 41x41, z/3 (1681 vertices)", lambda: ex.peaks(41), 0.9),
@@ -75,7 +66,7 @@ def main(argv=None) -> int:
         layouts = {}
         for method in ORDER:
             bpy.ops.wm.read_homefile(use_empty=True)
-            ob = add_object(stem, V, F)
+            ob = add_mesh(stem, V, F)
             edit(ob)
             METHODS[method]()  # warm-up
             times = []
@@ -112,10 +103,10 @@ def main(argv=None) -> int:
         fig, axes = plt.subplots(1, len(ORDER), figsize=(4.4 * len(ORDER), 4.4))
         for ax, method in zip(axes, ORDER):
             Ft, cuv, _, _ = layouts[method]
-            d, (worst, mean, _) = stretch.measure(V, Ft, cuv)
-            rgba = stretch.colours(d)
+            d, (worst, mean, _) = metrics.face_stretch(V, Ft, cuv)
+            rgba = metrics.stretch_colours(d)
             draw_stretch(ax, Ft, cuv, rgba, f"{method}\nstretch worst {worst:.2f}, mean {mean:.3f}")
-        stretch_key(fig, axes[-1], stretch.colours)
+        stretch_key(fig, axes[-1], metrics.stretch_colours)
         fig.suptitle(f"{title}: stretch per face in UV space")
         fig.tight_layout()
         fig.savefig(out / f"{stem}_stretch.png", dpi=100)

@@ -18,7 +18,7 @@ make_venv() {
     local dir="$1" bpy_version="${2:-}"
     local req="$ROOT/requirements-dev.txt"
     local want
-    want="$(cat "$req"; echo "bpy-override=$bpy_version")"
+    want="$(cat "$req" "$ROOT/pyproject.toml"; echo "bpy-override=$bpy_version")"
     want="$(echo "$want" | sha256sum | cut -d' ' -f1)"
     if [ ! -x "$dir/bin/python" ]; then
         "$(find_python)" -m venv "$dir"
@@ -31,10 +31,11 @@ make_venv() {
             cp "$req" "$dir/requirements.txt"
         fi
         "$dir/bin/python" -m pip install --quiet --disable-pip-version-check -r "$dir/requirements.txt"
+        # the project itself, editable: scripts and tests import it wherever they run from
+        "$dir/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e "$ROOT"
         echo "$want" > "$dir/.requirements.sha"
     fi
 }
 
 make_venv "$ROOT/.venv"
-export PYTHONPATH="$ROOT${PYTHONPATH:+:$PYTHONPATH}"
 PYTHON="$ROOT/.venv/bin/python"

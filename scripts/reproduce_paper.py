@@ -14,21 +14,18 @@ this machine; the paper's are Matlab 7.0 on a 2.4 GHz Pentium 4, quoted for refe
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 
+from isoparam_addon.solver import metrics, parametrize
+from isoparam_eval import baselines
+from isoparam_eval import meshes as ex
+from isoparam_eval.figures import draw_layout
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "scripts"))
-
-import matplotlib.pyplot as plt  # noqa: E402
-from figures import draw_layout  # noqa: E402
-
-from isoparam_addon.solver import baselines, metrics, parametrize  # noqa: E402
-from isoparam_addon.solver import examples as ex  # noqa: E402
 
 
 def timed(fn, repeat):

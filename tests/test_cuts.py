@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from isoparam_addon.solver import InvalidMeshError, cuts, parametrize
-from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver.cuts import area_distortion, next_paths
 from isoparam_addon.solver.mesh import unique_edges
+from isoparam_eval import meshes as ex
 
 
 def pairs(E):

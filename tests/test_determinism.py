@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import parametrize
 from isoparam_addon.solver.islands import Islands
 from isoparam_addon.solver.placement import canonical_turn
-from tests.conftest import procrustes_error
+from isoparam_eval import meshes as ex
+from tests.conftest import procrustes_error  # (tests is a package)
 
 ROOT = Path(__file__).resolve().parent.parent
 SPOT = ROOT / "tests" / "data" / "spot.obj"
@@ -31,7 +31,8 @@ DEFAULTS = dict(refine=100, extra_cuts=4)  # the operator's defaults
 _SOLVE = r"""
 import sys
 import numpy as np
-from isoparam_addon.solver import examples as ex, parametrize
+from isoparam_addon.solver import parametrize
+from isoparam_eval import meshes as ex
 
 spot = ex.load_obj(sys.argv[2])
 peaks, (box, box_faces, diagonals) = ex.peaks(41), ex.box(8)
@@ -70,7 +71,7 @@ def _machines():
 
 
 def _solve_in(env: dict, path: Path) -> dict:
-    full = {**os.environ, **env, "PYTHONPATH": str(ROOT)}
+    full = {**os.environ, **env}
     subprocess.run([sys.executable, "-c", _SOLVE, str(path), str(SPOT)], env=full, check=True, timeout=600)
     with np.load(path) as data:
         return {k: data[k] for k in data.files}

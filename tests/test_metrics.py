@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import metrics
+from isoparam_eval import meshes as ex
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 import isoparam_addon.solver.ordering as ordering
-from isoparam_addon.solver import examples as ex
+from isoparam_eval import meshes as ex
 
 MESHES = {
     "c_strip": lambda: ex.cylinder_strips(100, (100, 101), seed=0)[:2],  # a 3/4 cylinder: C-shaped

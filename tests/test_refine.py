@@ -5,11 +5,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from isoparam_addon.solver import baselines, metrics, parametrize
-from isoparam_addon.solver import examples as ex
+from isoparam_addon.solver import metrics, parametrize
 from isoparam_addon.solver.islands import Islands
 from isoparam_addon.solver.mesh import HalfEdges
 from isoparam_addon.solver.refinement import _max_step, refine
+from isoparam_eval import baselines
+from isoparam_eval import meshes as ex
 
 from .conftest import edge_length_error, procrustes_error
 

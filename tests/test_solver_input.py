@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from isoparam_addon.solver import InvalidMeshError, IsoparamError, parametrize
-from isoparam_addon.solver import examples as ex
+from isoparam_eval import meshes as ex
 
 
 def square():

@@ -4,8 +4,8 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import metrics, parametrize
+from isoparam_eval import meshes as ex
 
 MESHES = {
     "peaks": ex.peaks(17),

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import baselines, metrics, parametrize
-from isoparam_addon.solver import examples as ex
+from isoparam_addon.solver import metrics, parametrize
 from isoparam_addon.solver.mesh import unique_edges
+from isoparam_eval import baselines
+from isoparam_eval import meshes as ex
 
 from .conftest import edge_length_error, procrustes_error
 

@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_addon.solver.mesh import HalfEdges, fans, unique_edges
 from isoparam_addon.solver.topology import build_topology
+from isoparam_eval import meshes as ex
 
 from .conftest import edge_length_error
 

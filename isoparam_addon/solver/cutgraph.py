@@ -10,7 +10,7 @@ from scipy.sparse import csgraph
 from scipy.sparse.linalg import splu
 
 from .errors import SolverError
-from .geometry import face_areas
+from .geometry import edge_lengths, face_areas
 from .mesh import HalfEdges, orientation, split
 
 __all__ = ["cut_to_disks"]
@@ -149,102 +149,150 @@ def _cut_graph(X, Fs, he, face_island, todo, inner, keep):
 
     Returns a boolean mask over the undirected edges of ``he``.
     """
-    ns = len(X)
-    m = len(Fs)
-    ev = he.edge_vertices
-    length = np.linalg.norm(X[ev[:, 0]] - X[ev[:, 1]], axis=1)
-    tiny = 1e-12 * max(float(length.max()), 1e-300)
-    w = length + tiny  # csgraph ignores zero weights
-    w[inner] += w.sum()  # longer than any simple path of other edges
-    graph = sp.coo_matrix((w, (ev[:, 0], ev[:, 1])), shape=(ns, ns)).tocsr()
-    e_isl = np.empty(he.n_edges, dtype=np.int64)
-    e_isl[he.edge] = np.repeat(face_island, 3)
-    v_isl = np.full(ns, -1, dtype=np.int64)
-    v_isl[Fs.ravel()] = np.repeat(face_island, 3)
+    g = _EdgeGraph(X, Fs, he, face_island, inner)
     boundary_edge = he.edge_count == 1
-    on_bnd = np.zeros(ns, dtype=bool)
-    on_bnd[ev[boundary_edge].ravel()] = True
-    sources = np.flatnonzero(on_bnd & todo[v_isl])
-    closed = np.flatnonzero(todo & (np.bincount(e_isl[boundary_edge], minlength=len(todo)) == 0))
-    roots = np.zeros(0, dtype=np.int64)
-    if closed.size:
-        first_v = np.full(len(todo), ns, dtype=np.int64)
-        np.minimum.at(first_v, v_isl[v_isl >= 0], np.flatnonzero(v_isl >= 0))
-        d0 = csgraph.dijkstra(graph, directed=False, indices=first_v[closed], min_only=True)
-        far = np.where(np.isfinite(d0), d0, -1.0)
-        far = np.where(keep & (far >= 0), -0.5, far)  # vertices to keep whole root it only if nothing else can
-        roots = np.full(len(todo), -1, dtype=np.int64)
-        best = np.full(len(todo), -np.inf)
-        np.maximum.at(best, v_isl[v_isl >= 0], far[v_isl >= 0])
-        hit = (far == best[np.maximum(v_isl, 0)]) & (v_isl >= 0) & np.isin(v_isl, closed)
-        cand = np.where(hit, np.arange(ns), ns)
-        root_of = np.full(len(todo), ns, dtype=np.int64)
-        np.minimum.at(root_of, v_isl[v_isl >= 0], cand[v_isl >= 0])
-        roots = root_of[closed]
-    dist, pred, _ = csgraph.dijkstra(
-        graph, directed=False, indices=np.concatenate([sources, roots]), min_only=True, return_predecessors=True
-    )
+    on_bnd = np.zeros(g.ns, dtype=bool)
+    on_bnd[g.ev[boundary_edge].ravel()] = True
+    sources = np.flatnonzero(on_bnd & todo[g.v_isl])
+    closed = np.flatnonzero(todo & (np.bincount(g.e_isl[boundary_edge], minlength=len(todo)) == 0))
+    roots = _roots(g, closed, keep, len(todo))
+    cut = _tree_cotree(g, he, face_island, todo, inner, np.concatenate([sources, roots])) & ~boundary_edge
+    # closed genus-0 islands: nothing to cut yet; open them from the root to the farthest vertex
+    has_cut = np.bincount(g.e_isl[cut], minlength=len(todo)) > 0
+    sphere = ~has_cut[closed]
+    if sphere.any():
+        cut[_farthest_paths(g, closed[sphere], roots[sphere], keep)] = True
+    return cut
+
+
+class _EdgeGraph:
+    """The mesh's edges as a weighted graph for the cuts: 3D lengths, plus ``tiny`` (csgraph
+    ignores zero weights), and polygon diagonals longer than any simple path of other
+    edges; the island of every edge and vertex (-1 for vertices of no face)."""
+
+    def __init__(self, X, Fs, he, face_island, inner):
+        self.ns = ns = len(X)
+        self.ev = ev = he.edge_vertices
+        self.length = edge_lengths(X, ev)
+        self.tiny = 1e-12 * max(float(self.length.max()), 1e-300)
+        w = self.length + self.tiny
+        w[inner] += w.sum()
+        self.w = w
+        self.graph = sp.coo_matrix((w, (ev[:, 0], ev[:, 1])), shape=(ns, ns)).tocsr()
+        self.e_isl = np.empty(he.n_edges, dtype=np.int64)
+        self.e_isl[he.edge] = np.repeat(face_island, 3)
+        self.v_isl = np.full(ns, -1, dtype=np.int64)
+        self.v_isl[Fs.ravel()] = np.repeat(face_island, 3)
+        self.key = ev[:, 0] * np.int64(ns) + ev[:, 1]  # sorted: edges are numbered by key
+
+    def edges(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """The edge numbers of the vertex pairs (a, b) (each an edge)."""
+        return np.searchsorted(self.key, np.minimum(a, b) * np.int64(self.ns) + np.maximum(a, b))
+
+
+def _roots(g: _EdgeGraph, closed: np.ndarray, keep: np.ndarray, n_islands: int) -> np.ndarray:
+    """Per closed island, the vertex farthest from its lowest-numbered vertex (the lowest
+    numbered of the farthest), avoiding ``keep`` vertices where another can be."""
+    if not closed.size:
+        return np.zeros(0, dtype=np.int64)
+    ns, v_isl = g.ns, g.v_isl
+    used = v_isl >= 0
+    first_v = np.full(n_islands, ns, dtype=np.int64)
+    np.minimum.at(first_v, v_isl[used], np.flatnonzero(used))
+    d0 = csgraph.dijkstra(g.graph, directed=False, indices=first_v[closed], min_only=True)
+    far = np.where(np.isfinite(d0), d0, -1.0)
+    far = np.where(keep & (far >= 0), -0.5, far)  # vertices to keep whole root it only if nothing else can
+    best = np.full(n_islands, -np.inf)
+    np.maximum.at(best, v_isl[used], far[used])
+    hit = (far == best[np.maximum(v_isl, 0)]) & used & np.isin(v_isl, closed)
+    root_of = np.full(n_islands, ns, dtype=np.int64)
+    np.minimum.at(root_of, v_isl[used], np.where(hit, np.arange(ns), ns)[used])
+    return root_of[closed]
+
+
+def _tree_cotree(g: _EdgeGraph, he, face_island, todo, inner, sources) -> np.ndarray:
+    """Steps 1-3 of :func:`_cut_graph`: the cut graph of the islands in ``todo`` from the
+    shortest-path forest grown from ``sources`` (k,), as a mask over the edges."""
+    m = len(face_island)
+    ev = g.ev
+    dist, pred, _ = csgraph.dijkstra(g.graph, directed=False, indices=sources, min_only=True, return_predecessors=True)
     # T: the edge from every reached non-source vertex to its predecessor
     child = np.flatnonzero(pred >= 0)
-    tkey = np.sort(np.minimum(child, pred[child]) * np.int64(ns) + np.maximum(child, pred[child]))
-    ekey = ev[:, 0] * np.int64(ns) + ev[:, 1]
     in_T = np.zeros(he.n_edges, dtype=bool)
-    in_T[np.searchsorted(ekey, tkey)] = True
+    in_T[g.edges(child, pred[child])] = True
     # D: maximum spanning tree of the dual over interior edges outside T
     h = np.flatnonzero((he.twin > np.arange(3 * m)) & todo[face_island[np.arange(3 * m) // 3]])
     h = h[~in_T[he.edge[h]]]
     e = he.edge[h]
-    loop = (
-        np.where(np.isfinite(dist[ev[e, 0]]), dist[ev[e, 0]], 0)
-        + np.where(np.isfinite(dist[ev[e, 1]]), dist[ev[e, 1]], 0)
-        + length[e]
-    )
-    weight = (loop.max(initial=0.0) - loop) + tiny + 1e-300  # minimum of this = maximum loop
-    weight[inner[e]] = 0.5 * tiny + 1e-300  # below every other: diagonals are crossed, not cut
+    reach = np.where(np.isfinite(dist), dist, 0.0)
+    loop = reach[ev[e, 0]] + reach[ev[e, 1]] + g.length[e]
+    weight = (loop.max(initial=0.0) - loop) + g.tiny + 1e-300  # minimum of this = maximum loop
+    weight[inner[e]] = 0.5 * g.tiny + 1e-300  # below every other: diagonals are crossed, not cut
     dual = sp.coo_matrix((weight, (h // 3, he.twin[h] // 3)), shape=(m, m)).tocsr()
     tree = csgraph.minimum_spanning_tree(dual).tocoo()
     # int64 before the product: scipy's rows are int32, and numpy 1.26 (Blender's) keeps
     # int32 * np.int64(m) in int32 when m fits; past 46,341 faces the keys wrapped around
     r, c = tree.row.astype(np.int64), tree.col.astype(np.int64)
     fkey = np.sort(np.minimum(r, c) * m + np.maximum(r, c))
-    f, g = h // 3, he.twin[h] // 3
-    hkey = np.minimum(f, g) * np.int64(m) + np.maximum(f, g)
+    f, t = h // 3, he.twin[h] // 3
+    hkey = np.minimum(f, t) * np.int64(m) + np.maximum(f, t)
     crossed = np.zeros(he.n_edges, dtype=bool)
     if fkey.size:
         pos = np.minimum(np.searchsorted(fkey, hkey), fkey.size - 1)
         crossed[e[fkey[pos] == hkey]] = True
-    cand_idx = np.flatnonzero(todo[e_isl] & ~crossed)
-    core = _two_core(ns, ev[cand_idx])
+    candidate = np.flatnonzero(todo[g.e_isl] & ~crossed)
     cut = np.zeros(he.n_edges, dtype=bool)
-    cut[cand_idx[core]] = True
-    cut &= ~boundary_edge
-    # closed genus-0 islands: nothing to cut yet; open them from the root to the farthest vertex
-    has_cut = np.bincount(e_isl[cut], minlength=len(todo)) > 0
-    sphere = np.intersect1d(closed, np.flatnonzero(~has_cut))
-    for isl in sphere:  # one iteration per closed genus-0 island, not per vertex
-        inside = np.flatnonzero(v_isl == isl)
-        r = int(roots[np.searchsorted(closed, isl)])
-        d1, p1 = csgraph.dijkstra(graph, directed=False, indices=r, return_predecessors=True)
-        far1 = d1[inside]
-        other = ~keep[inside] & (inside != r)  # the far end: not a vertex to keep whole if another can be
-        if other.any():
-            far1 = np.where(other, far1, -1.0)
-        b = int(inside[np.argmax(far1)])  # never r: every other vertex is farther
-        path = [b]
-        while path[-1] != r:  # walks one path, O(sqrt(n)) steps on a typical mesh
-            path.append(int(p1[path[-1]]))
-        if len(path) == 2:
-            # one edge opens nothing (its two sides join the same two vertices, which
-            # is still one edge): go on to the neighbour of b costing least that is not
-            # r (from the edge list: ``graph`` holds each edge once, at its lower vertex;
-            # reading b's row alone found none, or only r, on small closed meshes)
-            at = np.flatnonzero((ev[:, 0] == b) | (ev[:, 1] == b))
-            nb = np.where(ev[at, 0] == b, ev[at, 1], ev[at, 0])
-            path.insert(0, int(nb[np.argmin(np.where(nb == r, np.inf, w[at]))]))
-        p = np.asarray(path, dtype=np.int64)
-        pk = np.minimum(p[:-1], p[1:]) * np.int64(ns) + np.maximum(p[:-1], p[1:])
-        cut[np.searchsorted(ekey, pk)] = True
+    cut[candidate[_two_core(g.ns, ev[candidate])]] = True
     return cut
+
+
+def _farthest_paths(g: _EdgeGraph, islands: np.ndarray, roots: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """For closed genus-0 ``islands`` (k,), the edges of the shortest path from each one's
+    root (k,) to its farthest vertex (not a ``keep`` vertex if another can be), at least
+    two edges long: one edge would open nothing (its two sides join the same two
+    vertices). All islands at once: they are disconnected, so one Dijkstra from every
+    root gives each vertex its own island's distance."""
+    ns, v_isl = g.ns, g.v_isl
+    dist, pred, _ = csgraph.dijkstra(g.graph, directed=False, indices=roots, min_only=True, return_predecessors=True)
+    slot = np.full(int(v_isl.max()) + 1, -1, dtype=np.int64)
+    slot[islands] = np.arange(len(islands))
+    mine = slot[np.maximum(v_isl, 0)]
+    mine[v_isl < 0] = -1
+    inside = mine >= 0
+    is_root = np.zeros(ns, dtype=bool)
+    is_root[roots] = True
+    other = ~keep & ~is_root
+    has_other = np.bincount(mine[inside & other], minlength=len(islands)) > 0
+    far = np.where(np.isfinite(dist), dist, -1.0)
+    far = np.where(has_other[np.maximum(mine, 0)] & ~other, -1.0, far)  # the far end: not kept if avoidable
+    best = np.full(len(islands), -np.inf)
+    np.maximum.at(best, mine[inside], far[inside])
+    hit = inside & (far == best[np.maximum(mine, 0)])
+    end = np.full(len(islands), ns, dtype=np.int64)
+    np.minimum.at(end, mine[inside], np.where(hit, np.arange(ns), ns)[inside])
+    # a path of one edge goes on to the end's cheapest neighbour that is not the root
+    short = pred[end] == roots
+    if short.any():
+        at = np.flatnonzero(np.isin(g.ev[:, 0], end[short]) | np.isin(g.ev[:, 1], end[short]))
+        a, b = g.ev[at, 0], g.ev[at, 1]
+        pos = np.full(ns, -1, dtype=np.int64)
+        pos[end[short]] = np.flatnonzero(short)
+        owner = np.where(pos[a] >= 0, pos[a], pos[b])  # which short path's end this edge is at
+        nb = np.where(pos[a] >= 0, b, a)
+        ok = nb != roots[owner]
+        order = np.lexsort((at[ok], g.w[at[ok]], owner[ok]))  # cheapest, then lowest edge number
+        first = order[np.unique(owner[ok][order], return_index=True)[1]]
+        extra_a, extra_b = nb[ok][first], end[owner[ok][first]]
+    else:
+        extra_a = extra_b = np.zeros(0, dtype=np.int64)
+    pieces = [g.edges(extra_a, extra_b)]
+    cur, stop = end, roots
+    while cur.size:  # one step along every path at once; as many rounds as the longest path
+        prev = pred[cur]
+        pieces.append(g.edges(cur, prev))
+        going = prev != stop
+        cur, stop = prev[going], stop[going]
+    return np.concatenate(pieces)
 
 
 def _orient_cut(Fs, he, face_island, n_islands, area, cut, flip, todo):

@@ -109,13 +109,21 @@ def solve(problem: Problem, options: Options) -> Parametrization:
         Y = info.uv
     clock.lap("refine")
     placed = place(Y, islands, pack=options.pack, margin=options.margin, fixed=held)
+    clock.lap("placement")
+    report = _island_report(islands, emb, clipped, flagged, pins, held, reached, info, unit)
+    return _result(V, F, topo, placed, unit, emb, report, info, clock)
+
+
+def _result(
+    V, F, topo: Topology, placed, unit: float, emb: Embedding, report: IslandReport, info: Refinement | None, clock
+) -> Parametrization:
+    """The :class:`.Parametrization` of a solve from its layout over the split vertices,
+    ``placed`` (in units of ``unit``)."""
     # of the layout as returned (up to the power-of-two unit, which keeps every sign):
     # moving an island rounds a face of 1e-26 the mesh's area to clockwise or nothing
     flipped = signed_areas(placed, topo.faces) <= 0
     corner_uv, uv, unused = per_corner_and_vertex(placed * unit, topo, len(V))
-    clock.lap("placement")
-    report = _island_report(islands, emb, clipped, flagged, pins, held, reached, info, unit)
-    stats = Stats(vertices=len(V), faces=len(F), split_vertices=len(X), iterations=emb.iterations)
+    stats = Stats(vertices=len(V), faces=len(F), split_vertices=len(topo.vertex_of), iterations=emb.iterations)
     stats.count(report)
     if info is not None:
         stats.refine_iterations, stats.refine_energy = info.iterations, info.energy

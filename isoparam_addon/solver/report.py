@@ -211,94 +211,82 @@ def lowered(added: int, before: np.ndarray, score: np.ndarray) -> list[SolverWar
 def warnings(islands: IslandReport, converged: np.ndarray, flipped: np.ndarray, unused: int) -> list[SolverWarning]:
     """The warnings that follow from a result's per-island facts, its Step 3 convergence
     (n_islands,) bool, its folded faces (m,) bool and its count of unused vertices."""
+    return [*_step_warnings(islands, converged), *_pin_warnings(islands), *_layout_warnings(flipped, unused)]
+
+
+def _step_warnings(islands: IslandReport, converged: np.ndarray) -> list[SolverWarning]:
     out = []
-
-    def add(kind: str, count: int, first: int | None, text: str) -> None:
-        out.append(SolverWarning(kind, count, first, text))
-
     bad = np.flatnonzero(~converged)
     if bad.size:
         text = (
             f"step 3 did not converge on {bad.size} island(s) (first: island {bad[0]}, "
             f"subspace change {islands.change[bad[0]]:.1e})"
         )
-        add("not_converged", bad.size, int(bad[0]), text)
+        out.append(SolverWarning("not_converged", bad.size, int(bad[0]), text))
     if islands.clipped.any():
         n = int(islands.clipped.sum())
-        add("degenerate_scale", n, None, f"step 4 fitted a degenerate scale on {n} island(s)")
+        out.append(SolverWarning("degenerate_scale", n, None, f"step 4 fitted a degenerate scale on {n} island(s)"))
     if islands.regularized.any():
         n = int(islands.regularized.sum())
-        add(
-            "degenerate_fans",
-            n,
-            None,
-            f"{counted(n, 'vertex has', 'vertices have')} no exact reconstruction (degenerate fans)",
-        )
+        text = f"{counted(n, 'vertex has', 'vertices have')} no exact reconstruction (degenerate fans)"
+        out.append(SolverWarning("degenerate_fans", n, None, text))
     restarted = {"conformal map": int(islands.conformal.sum()), "Tutte embedding": int(islands.tutte.sum())}
     if sum(restarted.values()):
         seeds = " and ".join(f"{k} from a {name}" for name, k in restarted.items() if k)
         first = int(np.argmax(islands.conformal | islands.tutte))
-        add(
-            "restarted",
-            sum(restarted.values()),
-            first,
-            f"the four-step layout folded on some islands; refinement restarted {seeds}",
-        )
-    if islands.one_point.any():
-        n, first = int(islands.one_point.sum()), int(np.argmax(islands.one_point))
-        add(
-            "pins_on_one_uv",
-            n,
-            first,
-            f"{counted(n, 'island has', 'islands have')} all their pins on one UV "
-            f"(first: island {first}): moved there, not scaled or shaped by them",
-        )
-    if islands.pin_conflicts.any():
-        n, first = int(islands.pin_conflicts.sum()), int(np.argmax(islands.pin_conflicts > 0))
-        add(
-            "pin_conflict",
-            n,
-            first,
-            f"{counted(n, 'pinned vertex has', 'pinned vertices have')} corners pinned "
-            f"to different UVs (first: island {first}): each is held at their mean",
-        )
+        text = f"the four-step layout folded on some islands; refinement restarted {seeds}"
+        out.append(SolverWarning("restarted", sum(restarted.values()), first, text))
     # a start that crushed faces the descent could not open: the report's stretch shows
     # it, this says what to do about it
     energy, area = islands.refine_energy, islands.refine_area
     stuck = np.flatnonzero((area > 0) & (energy > FAR * area) & ~islands.shaped)
     if stuck.size:
         i = int(stuck[0])
-        add(
-            "far_from_isometric",
-            stuck.size,
-            i,
+        text = (
             f"the refinement left {counted(stuck.size, 'island', 'islands')} far from isometric (first: island "
             f"{i}, symmetric Dirichlet {energy[i] / area[i]:.3g} per area, 4 is isometric): its start squeezed "
-            "faces the descent could not open; mark seams to cut it where it is squeezed",
+            "faces the descent could not open; mark seams to cut it where it is squeezed"
         )
+        out.append(SolverWarning("far_from_isometric", stuck.size, i, text))
+    return out
+
+
+def _pin_warnings(islands: IslandReport) -> list[SolverWarning]:
+    out = []
+    if islands.one_point.any():
+        n, first = int(islands.one_point.sum()), int(np.argmax(islands.one_point))
+        text = (
+            f"{counted(n, 'island has', 'islands have')} all their pins on one UV (first: island {first}): "
+            "moved there, not scaled or shaped by them"
+        )
+        out.append(SolverWarning("pins_on_one_uv", n, first, text))
+    if islands.pin_conflicts.any():
+        n, first = int(islands.pin_conflicts.sum()), int(np.argmax(islands.pin_conflicts > 0))
+        text = (
+            f"{counted(n, 'pinned vertex has', 'pinned vertices have')} corners pinned to different UVs "
+            f"(first: island {first}): each is held at their mean"
+        )
+        out.append(SolverWarning("pin_conflict", n, first, text))
     missed = np.flatnonzero(~islands.reached)
     if missed.size:
-        add(
-            "pins_unreached",
-            missed.size,
-            int(missed[0]),
+        text = (
             f"the pins of {missed.size} island(s) could not all be reached without folding the layout "
-            f"(first: island {missed[0]})",
+            f"(first: island {missed[0]})"
         )
+        out.append(SolverWarning("pins_unreached", missed.size, int(missed[0]), text))
+    return out
+
+
+def _layout_warnings(flipped: np.ndarray, unused: int) -> list[SolverWarning]:
+    out = []
     if flipped.any():
         n, first = int(flipped.sum()), int(np.argmax(flipped))
-        add(
-            "flipped",
-            n,
-            first,
-            f"{counted(n, 'triangle is', 'triangles are')} flipped in the layout (first: face {first})",
-        )
+        text = f"{counted(n, 'triangle is', 'triangles are')} flipped in the layout (first: face {first})"
+        out.append(SolverWarning("flipped", n, first, text))
     if unused:
-        add(
-            "unused_vertices",
-            unused,
-            None,
-            f"{counted(unused, 'vertex belongs', 'vertices belong')} to no face "
-            f"and {'was' if unused == 1 else 'were'} placed at (0, 0)",
+        text = (
+            f"{counted(unused, 'vertex belongs', 'vertices belong')} to no face and "
+            f"{'was' if unused == 1 else 'were'} placed at (0, 0)"
         )
+        out.append(SolverWarning("unused_vertices", unused, None, text))
     return out

@@ -128,19 +128,7 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
     n, m = len(V), len(F)
     seam = edge_mask(he0, n, seams)
     inner = edge_mask(he0, n, inner_edges, "inner_edges")
-    if seam.any() or (split_bowties and fan0 is None):
-        Fs, vertex_of = split(F, n, seam, he0)
-        he = HalfEdges(Fs, len(vertex_of))
-    else:  # validation guarantees one wedge per vertex: split vertices are the used ones
-        used = np.zeros(n, dtype=bool)
-        used[F.ravel()] = True
-        if used.all():
-            Fs, vertex_of, he = F, np.arange(n, dtype=np.int64), he0
-        else:
-            vertex_of = np.flatnonzero(used)
-            rank = np.cumsum(used, dtype=np.int64) - 1
-            Fs, he = rank[F], he0.relabel(rank)
-    ns = len(vertex_of)
+    Fs, vertex_of, he = _split_along_seams(F, n, he0, seam, split_bowties and fan0 is None)
     face_island = face_components(m, he, np.zeros(he.n_edges, dtype=bool))
     n_islands = int(face_island.max()) + 1
     Vu = V / unit_of(V)  # areas and lengths below only compare with each other
@@ -148,22 +136,14 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
     # the fans of validation were walked because F was consistently oriented
     if (Fs is F and fan0 is not None) or he.consistent(Fs):
         flip, orientable = np.zeros(m, dtype=bool), np.ones(n_islands, dtype=bool)
-    else:  # pragma: no branch
+    else:
         area = face_areas(Vu, F)
         flip, orientable = orientation(Fs, he, face_island, n_islands, area)
-    chi, n_loops = _island_counts(Fs, ns, he, face_island, n_islands)
+    chi, n_loops = _island_counts(Fs, len(vertex_of), he, face_island, n_islands)
     disk = orientable & (chi == 1) & (n_loops == 1)
-    empty = np.zeros(0, dtype=np.int64)
-    cut_edges, cut_islands = np.zeros((0, 2), dtype=np.int64), empty
-    reasons = dict(closed=empty, handle=empty, multi=empty, nonorientable=empty)
+    cut_edges = np.zeros((0, 2), dtype=np.int64)
+    reasons = _Reasons(~disk, orientable, chi, n_loops)
     if not disk.all():
-        cut_islands = np.flatnonzero(~disk)
-        reasons = dict(
-            closed=np.flatnonzero(~disk & (n_loops == 0)),
-            handle=np.flatnonzero(~disk & orientable & (2 - chi - n_loops > 0)),
-            multi=np.flatnonzero(~disk & (n_loops > 1)),
-            nonorientable=np.flatnonzero(~orientable),
-        )
         keep = np.zeros(n, dtype=bool)
         if avoid is not None:
             ids = np.asarray(avoid, dtype=np.int64).ravel()
@@ -171,20 +151,12 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
         Fs, vertex_of, flip, cut_edges = cut_to_disks(
             Vu, Fs, vertex_of, he, he0, face_island, ~disk, area, inner, flip, keep
         )
-        ns = len(vertex_of)
         he = None  # rebuilt below, once the faces are numbered and oriented
-    # number the split vertices island by island
-    vertex_island = np.empty(ns, dtype=np.int64)
-    vertex_island[Fs.ravel()] = np.repeat(face_island, 3)
-    if np.any(np.diff(vertex_island) < 0):
-        order = np.argsort(vertex_island, kind="stable")
-        rank = np.empty_like(order)
-        rank[order] = np.arange(ns)
-        Fs, vertex_of, vertex_island = rank[Fs], vertex_of[order], vertex_island[order]
-        he = None if he is None else he.relabel(rank)
+    Fs, vertex_of, vertex_island, he = _number_by_island(Fs, vertex_of, face_island, he)
+    ns = len(vertex_of)
     oriented = np.where(flip[:, None], Fs[:, ::-1], Fs) if flip.any() else Fs
     he_oriented = he if he is not None and oriented is Fs else HalfEdges(oriented, ns)
-    if cut_islands.size:
+    if not disk.all():
         chi, n_loops = _island_counts(oriented, ns, he_oriented, face_island, n_islands)
         still = np.flatnonzero((chi != 1) | (n_loops != 1))
         if still.size:  # pragma: no cover - a bug guard, the cut graph makes disks
@@ -205,10 +177,50 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
             n_islands=n_islands,
             flipped=flip,
             cut_edges=cut_edges,
-            cut_islands=cut_islands,
-            closed_islands=reasons["closed"],
-            handle_islands=reasons["handle"],
-            multi_boundary_islands=reasons["multi"],
-            nonorientable_islands=reasons["nonorientable"],
+            cut_islands=np.flatnonzero(~disk),
+            closed_islands=reasons.closed,
+            handle_islands=reasons.handles,
+            multi_boundary_islands=reasons.holes,
+            nonorientable_islands=reasons.nonorientable,
         ),
     )
+
+
+class _Reasons:
+    """Why the islands flagged in ``cut`` (n_islands,) bool are cut: (k,) int64 each."""
+
+    def __init__(self, cut, orientable, chi, n_loops):
+        self.closed = np.flatnonzero(cut & (n_loops == 0))
+        self.handles = np.flatnonzero(cut & orientable & (2 - chi - n_loops > 0))
+        self.holes = np.flatnonzero(cut & (n_loops > 1))
+        self.nonorientable = np.flatnonzero(~orientable)
+
+
+def _split_along_seams(F, n: int, he0: HalfEdges, seam: np.ndarray, bowties: bool):
+    """Faces over split vertices, the mesh vertex of each, and their half-edges: the mesh
+    cut along ``seam`` edges (and bow-tie vertices split with ``bowties``). Without
+    either, validation guarantees one wedge per vertex: the split vertices are the used
+    ones, and the half-edges of validation are reused."""
+    if seam.any() or bowties:
+        Fs, vertex_of = split(F, n, seam, he0)
+        return Fs, vertex_of, HalfEdges(Fs, len(vertex_of))
+    used = np.zeros(n, dtype=bool)
+    used[F.ravel()] = True
+    if used.all():
+        return F, np.arange(n, dtype=np.int64), he0
+    rank = np.cumsum(used, dtype=np.int64) - 1
+    return rank[F], np.flatnonzero(used), he0.relabel(rank)
+
+
+def _number_by_island(Fs, vertex_of, face_island, he):
+    """Split vertices renumbered island by island (each island a contiguous range); the
+    half-edges, if given, follow. Returns ``(Fs, vertex_of, vertex_island, he)``."""
+    ns = len(vertex_of)
+    vertex_island = np.empty(ns, dtype=np.int64)
+    vertex_island[Fs.ravel()] = np.repeat(face_island, 3)
+    if not np.any(np.diff(vertex_island) < 0):
+        return Fs, vertex_of, vertex_island, he
+    order = np.argsort(vertex_island, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(ns)
+    return rank[Fs], vertex_of[order], vertex_island[order], None if he is None else he.relabel(rank)

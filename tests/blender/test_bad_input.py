@@ -6,7 +6,7 @@ import pytest
 from isoparam_addon.blender import mesh_io
 from isoparam_addon.blender import unwrap as unwrap_module
 from isoparam_addon.solver import InvalidMeshError
-from isoparam_addon.solver import examples as ex
+from isoparam_eval import meshes as ex
 
 from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, set_uvs_and_pins, snapshot
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from isoparam_addon.solver import examples as ex
+from isoparam_eval import meshes as ex
 
 from .conftest import bpy  # noqa: F401 - skips this module without bpy
 

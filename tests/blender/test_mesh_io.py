@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from isoparam_addon.blender import mesh_io
-from isoparam_addon.solver import examples as ex
+from isoparam_eval import meshes as ex
 
 from .conftest import add_mesh, bpy, object_mode, triangles
 

@@ -4,8 +4,8 @@ import bmesh
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import metrics, parametrize
+from isoparam_eval import meshes as ex
 
 from .conftest import (
     add_mesh,

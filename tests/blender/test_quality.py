@@ -6,8 +6,8 @@ error within 2%, no folds. (Speed is measured by scripts/compare_blender.py, not
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import examples as ex
 from isoparam_addon.solver import metrics
+from isoparam_eval import meshes as ex
 
 from .conftest import add_mesh, bpy, corner_uvs, corner_verts, edit, object_mode, positions, triangles
 

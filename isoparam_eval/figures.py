@@ -35,7 +35,7 @@ def draw_layout(ax, F, uv, flipped=None, title=""):
 
 def draw_stretch(ax, F, uv, rgba, title=""):
     """A UV layout with every face filled by its stretch colour (``rgba`` (m, 4), the
-    viewport's colours from isoparam_addon/blender/stretch.py), with the colour key."""
+    viewport's colours from isoparam_addon.solver.metrics.stretch_colours), with the colour key."""
     cuv = _corner(F, uv)
     ax.add_collection(PolyCollection(cuv, facecolors=rgba, edgecolors=(0, 0, 0, 0.15), linewidths=0.1))
     ax.autoscale()

@@ -1,10 +1,18 @@
-"""bpy helpers shared by the demo and the comparison scripts: meshes in and out of
-Blender, the methods under comparison, checker-textured Cycles renders."""
+"""bpy helpers shared by the tests, the demo and the benchmarks: meshes in and out of
+Blender, edit mode, the methods under comparison, checker-textured Cycles renders.
+
+Importing this module imports bpy (Blender as a Python module), with Blender's user
+resources in a temporary folder.
+"""
 
 from __future__ import annotations
 
-import bpy
 import numpy as np
+
+from . import blender_user_folder
+
+blender_user_folder()
+import bpy  # noqa: E402 - after the user folder is set
 
 METHODS = {
     "isoparam": lambda: bpy.ops.uv.isometric_unwrap(),
@@ -17,16 +25,22 @@ METHODS = {
 }
 
 
-def add_object(name, V, F, seams=None):
-    """A triangle-mesh object from arrays, with optional seams (k, 2) vertex pairs."""
+def add_mesh(name, V, F, seams=None, location=(0, 0, 0)):
+    """A mesh object linked to the scene, from vertices (n, 3) and faces: an (m, k) array
+    (bulk, fast) or a list of polygons of any sizes; ``seams`` (s, 2) vertex pairs."""
     me = bpy.data.meshes.new(name)
-    me.vertices.add(len(V))
-    me.vertices.foreach_set("co", np.asarray(V, dtype=np.float32).ravel())
-    me.loops.add(3 * len(F))
-    me.loops.foreach_set("vertex_index", np.asarray(F, dtype=np.int32).ravel())
-    me.polygons.add(len(F))
-    me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F), 3, dtype=np.int32))
-    me.update(calc_edges=True)
+    if isinstance(F, np.ndarray):
+        me.vertices.add(len(V))
+        me.vertices.foreach_set("co", np.asarray(V, dtype=np.float32).ravel())
+        k = F.shape[1]
+        me.loops.add(k * len(F))
+        me.loops.foreach_set("vertex_index", np.asarray(F, dtype=np.int32).ravel())
+        me.polygons.add(len(F))
+        me.polygons.foreach_set("loop_start", np.arange(0, k * len(F), k, dtype=np.int32))
+        me.update(calc_edges=True)
+    else:
+        me.from_pydata(np.asarray(V, dtype=float).tolist(), [], F)
+        me.update()
     if seams is not None and len(seams):
         ev = np.empty(2 * len(me.edges), np.int32)
         me.edges.foreach_get("vertices", ev)
@@ -36,16 +50,9 @@ def add_object(name, V, F, seams=None):
         s = np.sort(np.asarray(seams), axis=1)
         me.edges.foreach_set("use_seam", np.isin(key, s[:, 0].astype(np.int64) * n + s[:, 1]))
     ob = bpy.data.objects.new(name, me)
+    ob.location = location
     bpy.context.scene.collection.objects.link(ob)
     return ob
-
-
-def edit(ob):
-    for o in bpy.context.scene.objects:
-        o.select_set(o is ob)
-    bpy.context.view_layer.objects.active = ob
-    bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
 
 
 def read_uvs(ob):
@@ -140,3 +147,82 @@ def render(ob, path, elevation: float = 0.6, samples: int = 16, size=(480, 360))
     scene.world.color = (0.35, 0.35, 0.38)
     scene.render.filepath = str(path)
     bpy.ops.render.render(write_still=True)
+
+
+def edit(*objects, select_all=True):
+    """Enter edit mode on these objects (the first one active), everything selected."""
+    if bpy.context.object is not None and bpy.context.object.mode != "OBJECT":
+        bpy.ops.object.mode_set(mode="OBJECT")
+    for ob in bpy.context.scene.objects:
+        ob.select_set(False)
+    for ob in objects:
+        ob.select_set(True)
+    bpy.context.view_layer.objects.active = objects[0]
+    bpy.ops.object.mode_set(mode="EDIT")
+    if select_all:
+        bpy.ops.mesh.select_all(action="SELECT")
+
+
+def object_mode():
+    if bpy.context.object is not None and bpy.context.object.mode != "OBJECT":
+        bpy.ops.object.mode_set(mode="OBJECT")
+
+
+def set_uvs_and_pins(ob, uv, pins):
+    """Write the active map's corner UVs (corners, 2) and pins (corners,) bool, object mode."""
+    layer = ob.data.uv_layers.active
+    layer.uv.foreach_set("vector", np.asarray(uv, dtype=np.float32).ravel())
+    if hasattr(layer, "pin_ensure"):  # 5.0 creates pins lazily; 4.2 always has them
+        layer.pin_ensure()
+    layer.pin.foreach_set("value", np.asarray(pins, dtype=bool))
+
+
+def corner_uvs(ob):
+    """(corners, 2) float32 UVs of the active map."""
+    me = ob.data
+    out = np.empty(2 * len(me.loops), dtype=np.float32)
+    me.uv_layers.active.uv.foreach_get("vector", out)
+    return out.reshape(-1, 2)
+
+
+def corner_verts(ob):
+    me = ob.data
+    out = np.empty(len(me.loops), dtype=np.int32)
+    me.attributes[".corner_vert"].data.foreach_get("value", out)
+    return out
+
+
+def triangles(ob):
+    """Loop triangles as (t, 3) corner indices."""
+    me = ob.data
+    me.calc_loop_triangles()
+    t = np.empty(3 * len(me.loop_triangles), dtype=np.int32)
+    me.loop_triangles.foreach_get("loops", t)
+    return t.reshape(-1, 3)
+
+
+def positions(ob):
+    me = ob.data
+    out = np.empty(3 * len(me.vertices), dtype=np.float32)
+    me.attributes["position"].data.foreach_get("vector", out)
+    return out.reshape(-1, 3).astype(np.float64)
+
+
+def snapshot(ob):
+    """Every attribute of the mesh as raw bytes, plus its UV maps' names."""
+    me = ob.data
+    out = {"uv_maps": tuple(u.name for u in me.uv_layers)}
+    sizes = {"POINT": len(me.vertices), "EDGE": len(me.edges), "FACE": len(me.polygons), "CORNER": len(me.loops)}
+    widths = {"FLOAT_VECTOR": 3, "FLOAT2": 2, "INT32_2D": 2, "FLOAT_COLOR": 4, "BYTE_COLOR": 4, "QUATERNION": 4}
+    for attr in me.attributes:
+        n = sizes.get(attr.domain, 0) * widths.get(attr.data_type, 1)
+        kind = (
+            "vector"
+            if attr.data_type in ("FLOAT_VECTOR", "FLOAT2")
+            else ("color" if "COLOR" in attr.data_type else "value")
+        )
+        dtype = bool if attr.data_type == "BOOLEAN" else (np.int32 if "INT" in attr.data_type else np.float32)
+        buf = np.empty(n, dtype=dtype)
+        attr.data.foreach_get(kind, buf)
+        out[attr.name] = buf.tobytes()
+    return out

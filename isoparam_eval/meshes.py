@@ -1,10 +1,13 @@
-"""Example meshes: the paper's test surfaces and exactly developable meshes.
+"""Meshes for tests, benchmarks and the demo: the paper's test surfaces, exactly
+developable meshes, OBJ files, and the real meshes of ``../shared/meshes``.
 
 Every generator returns ``(V (n, 3) float64, F (m, 3) int64)``; the developable ones
 also return their exact planar development ``U (n, 2)``. All randomness is seeded.
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial import Delaunay
@@ -23,6 +26,12 @@ __all__ = [
     "sphere_band",
     "torus",
     "annulus",
+    "box",
+    "load_obj",
+    "real_mesh",
+    "REAL",
+    "SPOT",
+    "SHARED",
 ]
 
 
@@ -353,7 +362,7 @@ def load_obj(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     UV map (none when it has no ``vt``). Lines are grouped by their number of corners
     and parsed a group at a time.
     """
-    from .mesh import HalfEdges
+    from isoparam_addon.solver.mesh import HalfEdges
 
     text = open(path, encoding="utf-8", errors="replace").read()
     lines = text.splitlines()
@@ -385,3 +394,15 @@ def load_obj(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         same = (flat_t[h] == flat_t[3 * (t // 3) + nxt[t % 3]]) & (flat_t[3 * (h // 3) + nxt[h % 3]] == flat_t[t])
         seams = np.unique(he.edge_vertices[he.edge[h[~same]]], axis=0)
     return V, F.astype(np.int64), seams
+
+
+ROOT = Path(__file__).resolve().parent.parent
+SPOT = ROOT / "tests" / "data" / "spot.obj"  # public domain (Keenan Crane): vendored
+SHARED = ROOT.parent / "shared" / "meshes"  # research-use models, read in place, never copied
+REAL = ("spot", "stanford-bunny", "fandisk", "rocker-arm", "homer", "beetle", "teapot")
+
+
+def real_mesh(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One of the real meshes (:data:`REAL`) as :func:`load_obj` reads it."""
+    path = SPOT if name == "spot" else SHARED / f"{name}.obj"
+    return load_obj(path)
