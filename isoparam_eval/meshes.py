@@ -29,6 +29,7 @@ __all__ = [
     "box",
     "load_obj",
     "real_mesh",
+    "suzanne_closed",
     "REAL",
     "SPOT",
     "SHARED",
@@ -337,18 +338,19 @@ def box(k: int = 8):
     idx = np.arange((k + 1) ** 2).reshape(k + 1, k + 1)
     a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
     quad = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
-    P, Fs, D = [], [], []
+    sides: list[np.ndarray] = []
+    Fs, D = [], []
     for axis in range(3):
         rest = [x for x in range(3) if x != axis]
         for sign in (-1.0, 1.0):  # the six sides, faces turned outwards
             pts = np.zeros((len(u), 3))
             pts[:, axis], pts[:, rest[0]], pts[:, rest[1]] = sign, u, v
-            base = sum(len(p) for p in P)
+            base = sum(len(p) for p in sides)
             outwards = (sign > 0) == (axis != 1)  # (rest[0], rest[1]) x-products to +/-axis
             Fs.append(base + (quad if outwards else quad[:, ::-1]))
             D.append(base + np.stack([a, c], 1))
-            P.append(pts)
-    P = np.concatenate(P)
+            sides.append(pts)
+    P = np.concatenate(sides)
     _, first, weld = np.unique(np.round(P * 1e9).astype(np.int64), axis=0, return_index=True, return_inverse=True)
     weld = weld.ravel()
     return P[first], weld[np.concatenate(Fs)], weld[np.concatenate(D)]
@@ -406,3 +408,13 @@ def real_mesh(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One of the real meshes (:data:`REAL`) as :func:`load_obj` reads it."""
     path = SPOT if name == "spot" else SHARED / f"{name}.obj"
     return load_obj(path)
+
+
+SUZANNE = ROOT / "tests" / "data" / "suzanne.npz"  # Blender's monkey, triangulated (bpy.ops.mesh.primitive_monkey_add)
+
+
+def suzanne_closed() -> tuple[np.ndarray, np.ndarray]:
+    """Suzanne as Blender adds it, triangulated, no seams: 507 vertices, a head with holes
+    and two closed eyes. Returns (V, F)."""
+    with np.load(SUZANNE) as data:
+        return data["V"].astype(np.float64), data["F"].astype(np.int64)

@@ -255,8 +255,11 @@ def test_a_merged_result_is_the_whole_mesh_solved_with_the_cuts_kept(pack, refin
     again = parametrize(V, F, r.cut_edges, **options)
     assert r.n_islands == again.n_islands == 3 and np.array_equal(r.face_island, again.face_island)
     size = np.ptp(again.corner_uv.reshape(-1, 2), axis=0).max()
-    assert np.abs(again.corner_uv - r.corner_uv).max() < 1e-9 * size
-    assert np.abs(again.uv - r.uv).max() < 1e-9 * size
+    # the same to the refinement's tolerance: the boxes descend from folded starts, where
+    # rounding (the boxes factored beside the disk or not) moves where each stops
+    close = (1e-6 if refine else 1e-9) * size
+    assert np.abs(again.corner_uv - r.corner_uv).max() < close
+    assert np.abs(again.uv - r.uv).max() < close
     assert np.array_equal(again.flipped, r.flipped) and np.array_equal(again.converged, r.converged)
     assert np.allclose(again.eigenvalues, r.eigenvalues, rtol=1e-6, atol=1e-12)
     assert r.warnings[2:] == again.warnings
@@ -267,7 +270,7 @@ def test_a_merged_result_is_the_whole_mesh_solved_with_the_cuts_kept(pack, refin
             again.stats.restarted_conformal,
             again.stats.restarted_tutte,
         )
-        assert r.stats.refine_energy[-1] == pytest.approx(again.stats.refine_energy[-1], rel=1e-9)
+        assert r.stats.refine_energy[-1] == pytest.approx(again.stats.refine_energy[-1], rel=1e-6)
     else:  # the pins hold: the disk stays in their frame
         assert np.allclose(r.corner_uv[disk[0], 0], [10.0, -3.0])
         assert np.allclose(r.corner_uv[disk[-1], 1], [12.0, -3.5])

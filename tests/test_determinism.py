@@ -31,7 +31,7 @@ DEFAULTS = dict(refine=100, extra_cuts=4)  # the operator's defaults
 _SOLVE = r"""
 import sys
 import numpy as np
-from isoparam_addon.solver import parametrize
+from isoparam_addon.solver import metrics, parametrize
 from isoparam_eval import meshes as ex
 
 spot = ex.load_obj(sys.argv[2])
@@ -54,7 +54,11 @@ shifts = np.array([[0.0, 0.0, 0.0], [3.1, 0.7, 0.0], [-2.9, 5.3, 1.0], [7.7, -3.
 cases["copies"] = (np.vstack([V + s for s in shifts]), np.vstack([F + k * len(V) for k in range(4)]), None, None)
 out = {}
 for name, (V, F, seams, inner) in cases.items():
-    out[name] = parametrize(V, F, seams, inner_edges=inner, refine=100, extra_cuts=4).corner_uv
+    for refine in (0, 100):
+        r = parametrize(V, F, seams, inner_edges=inner, refine=refine, extra_cuts=4)
+        out[f"{name}_{refine}"] = r.corner_uv
+        energy = metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet
+        out[f"{name}_{refine}_energy"] = np.array([energy])
 np.savez(sys.argv[1], **out)
 """
 
@@ -83,10 +87,20 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
 
 @pytest.mark.slow
 def test_the_same_uvs_under_other_blas_kernels_and_thread_counts(tmp_path):
+    # the paper's method (no refinement): the same UVs to 1e-9 of the layout's size. With
+    # the refinement, which stops once the energy has converged (not the UVs), the same
+    # energy to 1e-6: where a descent starts far from isometric (closed parts opened by a
+    # short cut) it carries rounding of Step 3 (1e-8) along soft directions of the energy,
+    # and stops 1e-5 to 1e-4 of the layout's size apart
     runs = [_solve_in(env, tmp_path / f"run{k}.npz") for k, env in enumerate(_machines())]
     for name in runs[0]:
         for env, other in zip(_machines()[1:], runs[1:]):
-            assert _relative(runs[0][name], other[name]) < 1e-9, (name, env)
+            if name.endswith("_energy"):
+                assert other[name][0] == pytest.approx(runs[0][name][0], rel=1e-6), (name, env)
+            elif name.endswith("_0"):
+                assert _relative(runs[0][name], other[name]) < 1e-9, (name, env)
+            else:
+                assert _relative(runs[0][name], other[name]) < 1e-3, (name, env)
 
 
 def _relabelled(V, F, seams, rng):

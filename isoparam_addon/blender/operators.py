@@ -49,11 +49,12 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
     )
     refine: IntProperty(
         name="Refinement",
-        description="Iterations of isometric refinement after the four-step layout (symmetric Dirichlet, "
-        "never folds; it stops earlier once converged). 0 is Sun & Hancock's method alone",
-        default=100,
+        description="Most iterations of isometric refinement after the four-step layout (symmetric "
+        "Dirichlet, never folds). It stops once converged, so this only caps the time on hard islands. "
+        "0 is Sun & Hancock's method alone",
+        default=1000,
         min=0,
-        max=2000,
+        max=5000,
     )
     extra_cuts: IntProperty(
         name="Extra Cuts",

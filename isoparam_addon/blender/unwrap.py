@@ -30,7 +30,7 @@ class Options:
     margin: float = 0.001
     correct_aspect: bool = True
     world_scale: bool = False
-    refine: int = 100
+    refine: int = 1000
     extra_cuts: int = 4
     show_stretch: bool = False
 
@@ -65,9 +65,9 @@ def _describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
             text = text.replace(f"({err.edges[0][0]}, {err.edges[0][1]})", f"between vertices {a} and {b}")
     hint = _HINTS.get(err.kind, "")
     if err.kind == "duplicate_face" and err.count:
-        overlap = _overlapping_faces(sel, int(err.indices[0]))
-        if overlap is not None:  # two faces, not a face given twice: Merge by Distance does not help
-            a, b = overlap
+        pair = _overlapping_faces(sel, int(err.indices[0]))
+        if pair is not None:  # two faces, not a face given twice: Merge by Distance does not help
+            a, b = pair
             text = (
                 f"{counted(err.count, 'triangle', 'triangles')} of Blender's triangulation "
                 f"{'comes' if err.count == 1 else 'come'} twice (first: faces {a} and {b} "
@@ -190,7 +190,7 @@ def _object_mode(context):
 
 @dataclass
 class _Solved:
-    obj: object
+    obj: bpy.types.Object
     sel: mesh_io.Selection
     corner_uv: np.ndarray
     held: np.ndarray

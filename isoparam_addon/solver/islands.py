@@ -215,8 +215,8 @@ class Islands:
             a_s, b_s = np.take(a, r, axis=0), np.take(b, r, axis=0)
             out += np.bincount(self.label[r], a_s[:, 0] * b_s[:, 0] + a_s[:, 1] * b_s[:, 1], minlength=self.n)
         for i in self.large:  # bounded by n / _LARGE
-            r = self.rows(i)
-            out[i] = np.dot(a[r].ravel(), b[r].ravel())
+            rows = self.rows(i)
+            out[i] = np.dot(a[rows].ravel(), b[rows].ravel())
         return out
 
     def gram(self, A: np.ndarray, B: np.ndarray, large: bool = True) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Beyond the paper: isometric refinement of the four-step layout, without folds.
+"""Beyond the paper: isometric refinement of a layout, without folds.
 
 The four-step layout is exact on developable surfaces, but on curved ones it shrinks the
 curved regions and grows the flat ones, and on non-developable random triangulations
@@ -12,25 +12,33 @@ infinite for a collapsed triangle, so a descent that starts without folds never 
 one: every step is capped below the first time any triangle would degenerate (the root
 of det J_f(t), a quadratic in the step t).
 
-The descent is L-BFGS whose initial inverse Hessian is the cotangent Laplacian (the
-Hessian of the Dirichlet part, the "quadratic proxy" of Kovalsky et al. 2016), factored
-once in nested-dissection order and reused by every iteration; the quasi-Newton pairs
-add the curvature of the ||J^{-1}|| part. An iteration costs one pair of triangular
-solves, a dozen sparse products and the line search (measured with ``tol=1e-7``: 40
-iterations on peaks 41x41, ~190 on a 100k-vertex peaks, against ~100 and 300+ for the
-momentum-only AQP; the default ``tol=1e-5`` stops after 15 and 16, with the symmetric
-Dirichlet energy within 1e-4 of the 1e-7 result).
+**Start.** A seed that folds cannot be repaired by a barrier energy; nor can a descent
+from a seed with crushed faces spend its iterations well. Such an island starts instead
+from the lowest-energy fold-free layout among the seed, a conformal map and a Tutte
+embedding (see :mod:`.seeds`).
 
-Islands are independent problems and are treated as such: each has its own ARAP
-acceptance, step length, line search, L-BFGS memory and stopping test (per-island dot
-products are one ``bincount``), so a hard island neither holds back nor stops the rest.
+**Descent.** Local/global steps, then L-BFGS whose initial inverse Hessian is a factored
+quadratic proxy. From a start near isometric (the four-step layout of a near-developable
+island) these are ARAP steps (Liu et al. 2008) and the proxy is the cotangent Laplacian
+(the Hessian of the Dirichlet part, Kovalsky et al. 2016). A start far from it (crushed
+faces: a Tutte embedding of a closed surface opened by one short cut) has curvature
+there that the cotangent proxy underestimates by orders of magnitude, and L-BFGS with it
+crawls; such an island takes SLIM steps (Rabinovich et al. 2017), and its proxy is a
+Laplacian re-weighted per face from its singular values as in SLIM, factored again when
+its energy has fallen by 30% since, or every 20 iterations, until it is near isometric.
+An iteration costs one pair of triangular solves, a dozen sparse products and the line
+search.
 
-A seed that folds (slivers on a random Delaunay S-surface, strongly curved islands such
-as a band around a sphere) cannot be repaired by a barrier energy; that island restarts
-from a conformal map, or a Tutte embedding where that folds too (see :mod:`.seeds`).
-Measured on Suzanne subdivided twice with Smart UV Project seams (112 islands, 9 of
-them folded): symmetric Dirichlet 4.0037 after 34 iterations, against 6.93 when every
-island restarted from a Tutte embedding and shared one line search.
+**Stopping.** An island stops when its energy fell by less than ``tol`` (relative) over
+the last 5 iterations, or by less than a hundredth of that over the last one, or when no
+step along a descent direction lowers it; the
+iteration cap is a safety net, not the usual exit.
+
+Islands are independent problems and are treated as such: each has its own start, ARAP
+acceptance, step length, line search, L-BFGS memory, proxy weights and stopping test
+(per-island dot products are one ``bincount``), so a hard island neither holds back nor
+stops the rest; once the islands still descending hold at most a quarter of the rows,
+they go on alone with a proxy of their own.
 
 Pins are Dirichlet constraints: pinned vertices keep their UV and the others adapt.
 """
@@ -45,17 +53,24 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ._parallel import solve_columns
-from .geometry import signed_double_areas
+from .geometry import signed_double_areas, triangles
 from .islands import Islands
 from .mesh import unique_edges
 from .ordering import nested_dissection
 from .seeds import lscm, tutte
 
-__all__ = ["Refinement", "refine", "FaceFrames"]
+__all__ = ["FaceFrames", "Proxy", "Refinement", "quadratic_proxy", "refine", "slim_weights"]
 
 _MEMORY = 8  # L-BFGS pairs
 _HANDOVER = 0.25  # once the islands still descending hold at most this share of the rows: own factor
-_COLLAPSED = 1e-6  # a seed face with less UV area than this times its 3D area: restart
+_COLLAPSED = 1e-6  # a seed face with less UV area than this times its 3D area is crushed
+_WINDOW = 5  # iterations over which the stopping test measures the decrease
+_CRUSHED = 2.0  # an island that starts above this times the isometric energy gets the re-weighted proxy
+_NEAR = 1.1  # ... until it is below this times the isometric energy
+_REFRESH_DROP = 0.7  # factor the re-weighted proxy again once a far island's energy fell this much
+_REFRESH_EVERY = 20  # ... or after this many iterations
+_SLIM_STEPS = 30  # at most this many SLIM steps from a start far from isometric
+_SLIM_DROP = 0.3  # ... each lowering the energy by this much (relative)
 
 
 class FaceFrames:
@@ -70,26 +85,22 @@ class FaceFrames:
         3D area (degenerate faces get a tiny positive stand-in, see ``degenerate``).
     Dx, Dy : (m, n) sparse
     degenerate : (m,) bool
+    faces : (m, 3) int64
     """
 
     def __init__(self, X: np.ndarray, faces: np.ndarray):
         m, n = len(faces), len(X)
-        cols = [np.ascontiguousarray(X[:, c]) for c in range(3)]
-        i0, i1, i2 = (np.ascontiguousarray(faces[:, k]) for k in range(3))
-        e1 = np.stack([c[i1] - c[i0] for c in cols], axis=1)
-        e2 = np.stack([c[i2] - c[i0] for c in cols], axis=1)
-        x1 = np.sqrt((e1 * e1).sum(axis=1))
-        cross = np.cross(e1, e2)
-        twice = np.sqrt((cross * cross).sum(axis=1))
-        scale = np.maximum(x1, np.sqrt((e2 * e2).sum(axis=1)))
-        # a face collapsed to a point takes a stand-in size from the mesh: 1e-300 made its
-        # area underflow to 0 and its gradient 0/0 (NaN energy for the whole island)
+        self.faces = faces
+        tri = triangles(X, faces)
+        scale = np.maximum(tri.l1, tri.l2)
+        # a face collapsed to a point takes a stand-in size from the mesh (a zero area
+        # would make its gradient 0/0, the whole island's energy NaN)
         size = float(scale.max(initial=0.0))
         scale = np.maximum(scale, 1e-9 * (size if size > 0 else 1.0))
         floor = 1e-6 * scale
-        x1 = np.maximum(x1, floor)
-        x2 = (e1 * e2).sum(axis=1) / x1
-        y2 = twice / x1
+        x1 = np.maximum(tri.l1, floor)
+        x2 = tri.dot / x1
+        y2 = tri.cross / x1
         self.degenerate = y2 < floor
         y2 = np.maximum(y2, floor)
         self.area = 0.5 * x1 * y2
@@ -106,9 +117,10 @@ class FaceFrames:
         u, v = uv[:, 0], uv[:, 1]
         return self.Dx @ u, self.Dy @ u, self.Dx @ v, self.Dy @ v
 
-    def laplacian(self) -> sp.csr_matrix:
-        """The cotangent Laplacian ``sum_f A_f (Dx^T Dx + Dy^T Dy)`` (n, n)."""
-        A = sp.diags(self.area)
+    def laplacian(self, weights: np.ndarray | None = None) -> sp.csr_matrix:
+        """The cotangent Laplacian ``sum_f w_f A_f (Dx^T Dx + Dy^T Dy)`` (n, n), with
+        per-face ``weights`` (m,) (1 without)."""
+        A = sp.diags(self.area if weights is None else self.area * weights)
         return (self.DxT @ A @ self.Dx + self.DyT @ A @ self.Dy).tocsr()
 
 
@@ -159,6 +171,28 @@ def _max_step(J, dJ, limit: float = np.inf):
     return np.minimum(t, np.minimum(r1, r2))
 
 
+def slim_weights(J) -> np.ndarray:
+    """Per face, the scalar weight of SLIM's re-weighted proxy for the symmetric Dirichlet
+    energy, 1 for an isometric face (m,).
+
+    SLIM (Rabinovich et al. 2017, Sec. 4) weighs each singular direction by
+    ``w(s)^2 = f'(s) / (2 (s - 1))``, here with f(s) = s^2 + s^-2:
+    ``w^2 = (s + 1)(s^2 + 1) / s^3``, 4 at s = 1, growing as ``s^-3`` for a crushed
+    direction. One proxy serves u and v only if the weight is the same in both
+    directions: the mean of the two, divided by its isometric value.
+    """
+    a, b, c, d = J
+    q = 0.5 * np.hypot(a + d, c - b)  # the conformal and anti-conformal parts of J
+    r = 0.5 * np.hypot(a - d, c + b)
+    s1 = np.maximum(q + r, 1e-50)  # a collapsed face weighs as much as a float allows
+    s2 = np.maximum(q - r, 1e-50)  # (fold-free: q > r)
+    w = sum((s + 1.0) * (s * s + 1.0) / (s * s * s) for s in (s1, s2)) / 8.0
+    # on a grid of 2^(1/8) steps: the proxy, and with it the descent, must not follow
+    # rounding (a layout that differs by 1e-9 would otherwise descend to points 1e-4
+    # apart); a face's weight is off by 4% at most, which the quasi-Newton pairs absorb
+    return np.exp2(np.round(8.0 * np.log2(np.minimum(w, 1e150))) / 8.0)
+
+
 @dataclass
 class Refinement:
     """What :func:`refine` did.
@@ -173,6 +207,8 @@ class Refinement:
     iterations : int
         Descent iterations.
     arap_iterations : int
+    proxies : int
+        Times the proxy was re-weighted and factored again.
     restarted_conformal, restarted_tutte : (n_islands,) bool
         Islands whose seed folded, by the layout that replaced it: a conformal map, or a
         Tutte embedding where that folded too.
@@ -199,6 +235,7 @@ class Refinement:
     energy: list[float] = field(default_factory=list)
     iterations: int = 0
     arap_iterations: int = 0
+    proxies: int = 0
     folded: int = 0
     seconds: float = 0.0
 
@@ -214,75 +251,370 @@ class Refinement:
         self.energy.append(float(self.island_energy.sum()) / max(float(self.island_area.sum()), 1e-300))
 
 
-def _reseed(X, faces, x, he_twin, islands, frames, per_face, pinned, order=None):
-    """Replace the seed of islands that fold or collapse (and have no pins) by a
-    conformal map, or by a Tutte embedding where that folds too.
-
-    Collapsed means a face whose UV area is below ``_COLLAPSED`` times its 3D area: a
-    descent from there spends its iterations on the energy's singularity.
-
-    Returns the new seed, the islands still folded, and those restarted from a
-    conformal map and from a Tutte embedding, (n_islands,) bool each.
-    """
-    det = signed_double_areas(x, faces) / (2.0 * frames.area)
-    poor = per_face.sum(det <= _COLLAPSED) > 0
-    bad = poor & (np.bincount(islands.label, pinned, minlength=islands.n) == 0)
-    restarted = []
-    for seed, floor in ((lscm, _COLLAPSED), (tutte, 0.0)):
-        ok = np.zeros(islands.n, dtype=bool)
-        if bad.any():
-            try:
-                if seed is lscm:
-                    y = lscm(X, faces, islands, frames, bad, order)
-                else:
-                    y = tutte(X, faces, he_twin, islands, frames, bad, order)
-            except RuntimeError:  # SuperLU: "Factor is exactly singular"; they stay as they are
-                y = None
-            if y is not None:
-                ok = bad & (per_face.sum(signed_double_areas(y, faces) <= floor * 2.0 * frames.area) == 0)
-                x = np.where(ok[islands.label][:, None], y, x)
-                bad &= ~ok
-        restarted.append(ok)
-    return x, per_face.sum(signed_double_areas(x, faces) <= 0) > 0, restarted[0], restarted[1]
-
-
 @dataclass
 class Proxy:
-    """The descent's fixed quadratic proxy ``H = 2 (K + eps M)``, factored once.
+    """The descent's quadratic proxy ``H = 2 (K_w + diag(whisper))``, factored.
 
-    K is the cotangent Laplacian, M the lumped mass matrix with a whisper ``eps`` that
-    fixes the translation of islands without pins. It depends on the mesh and the pins
-    only, not on the layout, so :func:`parametrize` builds it in its worker thread while
-    Step 3 runs (SuperLU releases the GIL; measured: two 100k factorizations take 0.55 s
-    side by side, 1.08 s one after the other).
+    ``K_w`` is the cotangent Laplacian with per-face ``weights`` (1: the cotangent
+    Laplacian itself, which depends on the mesh and the pins only, so :func:`.solve`
+    factors it in a worker thread while Step 3 runs), and the whisper, a tiny multiple of
+    the lumped mass per island, fixes the translation of islands without pins.
     """
 
     frames: FaceFrames
+    weights: np.ndarray  # (m,)
     H: sp.csr_matrix
-    whisper: np.ndarray  # (n,): H = 2 (K + diag(whisper))
-    pinned: np.ndarray
-    perm: np.ndarray
+    whisper: np.ndarray  # (n,)
+    pinned: np.ndarray  # (n,) bool
+    perm: np.ndarray  # the free vertices in elimination order
     lu: object
 
+    def solve(self, g: np.ndarray) -> np.ndarray:
+        """``H^{-1} g`` on the free rows (n, 2), zero on the pinned ones."""
+        if self.lu is None:
+            return np.zeros_like(g)
+        n = len(g)
+        slot = np.full(n, len(self.perm), dtype=np.int64)  # pinned rows read the zero row appended
+        slot[self.perm] = np.arange(len(self.perm))
+        y = solve_columns(self.lu, np.take(g, self.perm, axis=0))
+        return np.take(np.vstack([y, np.zeros((1, y.shape[1]))]), slot, axis=0)
 
-def quadratic_proxy(X, faces, islands: Islands, pinned=None, order=None) -> Proxy:
+    def reweighted(self, islands: Islands, weights: np.ndarray) -> Proxy:
+        """The proxy with other face weights (m,), factored again in the same order."""
+        return _factor(self.frames, islands, self.pinned, self.perm, weights)
+
+
+def quadratic_proxy(X, faces, islands: Islands, pinned=None, order=None, weights=None) -> Proxy:
     """Build and factor the proxy (see :class:`Proxy`) for ``pinned`` (n,) bool vertices,
-    eliminating in ``order`` (n,) (e.g. Step 3's nested dissection) when given."""
+    with per-face ``weights`` (m,) (1: the cotangent Laplacian), eliminating in ``order``
+    (n,) (e.g. Step 3's nested dissection) when given."""
     n = len(X)
     pinned = np.zeros(n, dtype=bool) if pinned is None else pinned
     frames = FaceFrames(X, faces)
-    K = frames.laplacian()
+    perm = order[~pinned[order]] if order is not None else np.flatnonzero(~pinned)
+    return _factor(frames, islands, pinned, perm, np.ones(len(faces)) if weights is None else weights)
+
+
+def _factor(frames: FaceFrames, islands: Islands, pinned, perm, weights) -> Proxy:
+    K = frames.laplacian(weights)
+    n = K.shape[0]
     # a whisper of the mass matrix pins the translations of islands without pins, scaled
     # per island so that each island's block of H is what it would be alone
-    mass = np.bincount(faces.ravel(), np.repeat(frames.area / 3, 3), minlength=n)
+    mass = np.bincount(frames.faces.ravel(), np.repeat(frames.area / 3, 3), minlength=n)
     size = np.maximum(islands.size, 1)
     reg = 1e-9 * np.bincount(islands.label, K.diagonal(), minlength=islands.n) / size
     mean_mass = np.bincount(islands.label, mass, minlength=islands.n) / size
     whisper = (reg / np.maximum(mean_mass, 1e-300))[islands.label] * mass
     H = 2.0 * (K + sp.diags(whisper))
-    perm = order[~pinned[order]] if order is not None else np.flatnonzero(~pinned)
     lu = splu(H[perm][:, perm].tocsc(), permc_spec="NATURAL") if len(perm) else None
-    return Proxy(frames=frames, H=H.tocsr(), whisper=whisper, pinned=pinned, perm=perm, lu=lu)
+    return Proxy(frames, weights, H.tocsr(), whisper, pinned, perm, lu)
+
+
+def _start(X, faces, x, he_twin, islands: Islands, frames: FaceFrames, per_face: Islands, pinned, order=None):
+    """The start of every island: its seed ``x`` (n, 2), unless the seed folds or crushes a
+    face (UV area below ``_COLLAPSED`` times its 3D area) and the island has no pins;
+    then the lowest-energy fold-free layout among the seed, a conformal map and (where
+    the conformal map folds or crushes too) a Tutte embedding.
+
+    Returns the start, the islands that still fold, and those started from a conformal
+    map and from a Tutte embedding, (n_islands,) bool each.
+    """
+    area2 = 2.0 * frames.area
+    det = signed_double_areas(x, faces) / area2
+    poor = (per_face.sum(det <= _COLLAPSED) > 0) & (np.bincount(islands.label, pinned, minlength=islands.n) == 0)
+    none = np.zeros(islands.n, dtype=bool)
+    if not poor.any():
+        return x, per_face.sum(det <= 0) > 0, none, none
+    best = np.where(per_face.sum(det <= 0) > 0, np.inf, _island_energy(frames, per_face, x))
+    chosen = np.zeros(islands.n, dtype=np.int64)  # 0: the seed, 1: conformal, 2: Tutte
+    candidates = [x]
+    want = poor
+    for k, seed in enumerate((lscm, tutte), start=1):
+        if not want.any():
+            break
+        try:
+            y = (
+                lscm(X, faces, islands, frames, want, order)
+                if seed is lscm
+                else tutte(X, faces, he_twin, islands, frames, want, order)
+            )
+        except RuntimeError:  # SuperLU: "Factor is exactly singular"; they keep what they have
+            break
+        d = signed_double_areas(y, faces) / area2
+        folded = per_face.sum(d <= 0) > 0
+        e = np.where(want & ~folded, _island_energy(frames, per_face, y), np.inf)
+        better = e < best
+        best, chosen = np.where(better, e, best), np.where(better, k, chosen)
+        candidates.append(y)
+        want = want & (folded | (per_face.sum(d <= _COLLAPSED) > 0))  # a Tutte embedding only where needed
+    x = candidates[0]
+    for k in range(1, len(candidates)):
+        x = np.where((chosen == k)[islands.label][:, None], candidates[k], x)
+    still = per_face.sum(signed_double_areas(x, faces) <= 0) > 0
+    return x, still, chosen == 1, chosen == 2
+
+
+def _island_energy(frames: FaceFrames, per_face: Islands, uv: np.ndarray) -> np.ndarray:
+    """Per-island symmetric Dirichlet energy of a layout (inf where a face folds)."""
+    a, b, c, d = frames.jacobians(uv)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        e, _ = _energy_terms(a, b, c, d, frames.area)
+    return per_face.sum(np.where(a * d - b * c > 0, e, np.inf))
+
+
+class _Descent:
+    """The state of one refinement: the layout, its Jacobians, per-island energies and
+    gradient, which islands still descend, the L-BFGS memory and the proxy."""
+
+    def __init__(self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol: float, out: Refinement):
+        self.X, self.faces, self.islands, self.pinned, self.tol, self.out = X, faces, islands, pinned, tol, out
+        self.proxy = proxy
+        self.frames = proxy.frames
+        self.area = proxy.frames.area
+        self.per_face = Islands.labelled(islands.label[faces[:, 0]], islands.n)
+        self.x = x
+        self.memory: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (s, y, rho per island)
+        self.gamma = np.ones(islands.n)  # per-island scale of the proxy, from the last good pair
+        self.history: list[np.ndarray] = []  # per-island energies of the last iterations
+        self.refreshed_energy = np.full(islands.n, np.inf)  # each island's energy when its weights were set
+        self.refreshed_at = np.zeros(islands.n, dtype=np.int64)
+        self.fixed = np.flatnonzero(pinned)
+
+    def begin(self, active: np.ndarray) -> None:
+        """Start descending the ``active`` islands (the others are left as they are)."""
+        self.set_active(active)
+        self.J = self.frames.jacobians(self.x)
+        self.E, self.G = self.energies(self.J)
+        self.trace = [self.E]  # per island, the start's energy and each ARAP step's
+        self.island_area = self.per_face.sum(self.area)
+        # a start far from isometric (crushed faces) descends with the re-weighted proxy; a
+        # start near it (the four-step layout of a near-developable island) with the
+        # cotangent one, whose descent neither needs the re-weighting nor carries rounding
+        # of the start as far
+        self.reweighting = active & (self.E > _CRUSHED * 4.0 * self.island_area)
+
+    def set_active(self, active: np.ndarray) -> None:
+        self.active = active
+        self.live_face = self.per_face.expand(active) * np.ones(len(self.faces), dtype=bool)
+        self.live_area = float(self.area[self.live_face].sum())
+        self.every_face_live = bool(self.live_face.all())
+
+    def energies(self, J):
+        """Per-island energy (0 for islands left alone: they may hold folds) and the
+        per-face derivatives dE/dJ."""
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            e, G = _energy_terms(*J, self.area)
+        return self.per_face.sum(e if self.every_face_live else np.where(self.live_face, e, 0.0)), G
+
+    def gradient(self, G) -> np.ndarray:
+        fr = self.frames
+        if not self.every_face_live:
+            G = [np.where(self.live_face, Gk, 0.0) for Gk in G]
+        g = np.stack([fr.DxT @ G[0] + fr.DyT @ G[1], fr.DxT @ G[2] + fr.DyT @ G[3]], axis=1)
+        g[self.pinned] = 0.0
+        return g
+
+    # ---------------------------------------------------------------- the proxy
+
+    def refresh(self, iteration: int, force: bool = False, which: np.ndarray | None = None) -> None:
+        """Re-weigh the proxy of the active islands that are far from isometric, if their
+        energy fell by ``_REFRESH_DROP`` since their weights were set, or
+        ``_REFRESH_EVERY`` iterations went by (``force``: whatever the time); or of the
+        islands ``which`` (n_islands,) bool."""
+        if which is not None:
+            self._reweigh(iteration, which)
+            return
+        far = self.active & self.reweighting & (self.E > _NEAR * 4.0 * self.island_area)
+        due = (
+            force | (self.E < _REFRESH_DROP * self.refreshed_energy) | (iteration - self.refreshed_at >= _REFRESH_EVERY)
+        )
+        self._reweigh(iteration, far & due)
+
+    def _reweigh(self, iteration: int, which: np.ndarray) -> None:
+        if not which.any():
+            return
+        mine = self.per_face.expand(which) * np.ones(len(self.faces), dtype=bool)
+        weights = np.where(mine, slim_weights(self.J), self.proxy.weights)
+        self.proxy = self.proxy.reweighted(self.islands, weights)
+        self.refreshed_energy = np.where(which, self.E, self.refreshed_energy)
+        self.refreshed_at = np.where(which, iteration, self.refreshed_at)
+        # their curvature pairs describe the old proxy's error: forgotten
+        self.memory = [(s, y, np.where(which, 0.0, rho)) for s, y, rho in self.memory]
+        self.gamma = np.where(which, 1.0, self.gamma)
+        self.out.proxies += 1
+
+    # ---------------------------------------------------------------- ARAP
+
+    def local_global(self, steps: int) -> None:
+        """Local/global steps before the descent: large moves, one factored solve each.
+
+        An island near isometric takes ARAP steps (Liu et al. 2008) with the proxy as it
+        is, each taken whole if it folds nothing and lowers the energy, at most ``steps``
+        and until one does not. An island far from it (a crushed start) takes SLIM steps
+        (Rabinovich et al. 2017): the proxy re-weighted at every step, the step cut back
+        to fold nothing and to lower the energy, while each lowers it by ``_SLIM_DROP``
+        or more, at most ``_SLIM_STEPS``.
+        """
+        fr, islands, per_face = self.frames, self.islands, self.per_face
+        stepping = self.active.copy()
+        for k in range(max(steps, _SLIM_STEPS)):  # local/global steps
+            far = stepping & self.reweighting & (self.E > _NEAR * 4.0 * self.island_area)
+            stepping &= far | (k < steps)
+            if not stepping.any():
+                break
+            if far.any():
+                self.refresh(0, which=far)
+            p = np.where(islands.spread(stepping), self._global_step() - self.x, 0.0)
+            dJ = fr.jacobians(p)
+            t = np.where(far, np.minimum(1.0, 0.9 * per_face.min(_max_step(self.J, dJ, 1.0 / 0.9))), 1.0)
+            t = np.where(stepping, t, 0.0)
+            for _ in range(40):  # halvings of the far islands' steps, until each lowers the energy
+                Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(self.J, dJ))
+                Et, Gt = self.energies(Jt)
+                folds = per_face.sum((Jt[0] * Jt[3] - Jt[1] * Jt[2]) <= 0) > 0
+                worse = (t > 0) & (folds | ~(Et < self.E))
+                if not (worse & far).any():
+                    break
+                t = np.where(worse & far, 0.5 * t, t)
+            take = (t > 0) & ~worse
+            if not take.any():
+                break
+            dropped = Et < (1.0 - _SLIM_DROP) * self.E
+            self.x = np.where(islands.spread(take), self.x + islands.spread(t) * p, self.x)
+            self.J = tuple(np.where(per_face.expand(take), jt, j) for jt, j in zip(Jt, self.J))
+            self.G = [np.where(per_face.expand(take), gt, gk) for gt, gk in zip(Gt, self.G)]
+            self.E = np.where(take, Et, self.E)
+            stepping = take & (~far | dropped)  # an island that declines, or slows down, stops
+            self.trace.append(self.E)
+            self.out.arap_iterations += 1
+
+    def _global_step(self) -> np.ndarray:
+        """The layout whose Jacobians are closest to the rotations closest to the current
+        ones, in the proxy's norm (pinned vertices stay)."""
+        fr = self.frames
+        a, b, c, d = self.J
+        # the rotation closest to each Jacobian: (cos, sin) along (a + d, c - b), no
+        # trigonometry; weighted as the proxy weighs each face
+        w = self.proxy.weights * self.area
+        cs, sn = a + d, c - b
+        h = np.hypot(cs, sn)
+        flat = h == 0  # arctan2(0, 0) = 0: the identity
+        h = w / np.where(flat, 1.0, h)
+        cs = np.where(flat, w, cs * h)
+        sn = sn * h
+        rhs = 2.0 * np.stack([fr.DxT @ cs - fr.DyT @ sn, fr.DxT @ sn + fr.DyT @ cs], axis=1)
+        if self.fixed.size:
+            rhs -= self.proxy.H[:, self.fixed] @ self.x[self.fixed]
+        y = self.proxy.solve(rhs)
+        y[self.pinned] = self.x[self.pinned]
+        return y
+
+    # ---------------------------------------------------------------- L-BFGS
+
+    def direction(self, g: np.ndarray):
+        """The L-BFGS direction (n, 2) for the active islands, and its slope per island."""
+        islands = self.islands
+        q = np.where(islands.spread(self.active), g, 0.0)
+        alphas = []
+        for s_k, y_k, rho in reversed(self.memory):
+            a_k = rho * islands.dot(s_k, q)
+            alphas.append(a_k)
+            q -= islands.spread(a_k) * y_k
+        r = self.proxy.solve(q) * islands.spread(self.gamma)
+        for a_k, (s_k, y_k, rho) in zip(reversed(alphas), self.memory):
+            r += islands.spread(a_k - rho * islands.dot(y_k, r)) * s_k
+        p = -r
+        slope = islands.dot(g, p)
+        lost = self.active & (slope >= 0)
+        if lost.any():  # not a descent direction: those islands forget and use the proxy
+            self.memory = [(s_k, y_k, np.where(lost, 0.0, rho)) for s_k, y_k, rho in self.memory]
+            self.gamma[lost] = 1.0
+            p = np.where(islands.spread(lost), -self.proxy.solve(np.where(islands.spread(lost), g, 0.0)), p)
+            slope = islands.dot(g, p)
+        return np.where(islands.spread(self.active), p, 0.0), slope
+
+    def line_search(self, p: np.ndarray, slope: np.ndarray):
+        """Backtracking (Armijo) island by island, from the longest step that folds
+        nothing (capped at 1). Returns the step per island (0 where none lowered the
+        energy; those islands stop), the Jacobians, energies and dE/dJ there."""
+        per_face, active = self.per_face, self.active
+        dJ = self.frames.jacobians(p)
+        t = np.where(active, np.minimum(1.0, 0.9 * per_face.min(_max_step(self.J, dJ, 1.0 / 0.9))), 0.0)
+        searching = active.copy()
+        Jt: tuple | None = None
+        Gt: list = []
+        Et = self.E
+        while searching.any():
+            f = None if Jt is None else per_face.members(searching)
+            if Jt is None or f is None or 2 * len(f) > len(self.area):
+                Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(self.J, dJ))
+                Et, Gt_ = self.energies(Jt)
+                Gt = list(Gt_)
+            else:  # few faces still searching: evaluate only theirs, the rest stands
+                tf = t[per_face.label[f]]
+                Jf = [np.take(j, f) + tf * np.take(dj, f) for j, dj in zip(self.J, dJ)]
+                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                    ef, Gf = _energy_terms(Jf[0], Jf[1], Jf[2], Jf[3], np.take(self.area, f))
+                for k in range(4):
+                    Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
+                Et = np.where(searching, np.bincount(per_face.label[f], ef, minlength=self.islands.n), Et)
+            searching &= ~(Et <= self.E + 1e-4 * t * slope)
+            t[searching] *= 0.5
+            gone = searching & (t < 1e-12)
+            t[gone] = 0.0
+            self.active &= ~gone  # no decrease along a descent direction: as far as it goes
+            searching &= ~gone
+        assert Jt is not None
+        # every island that moved was last evaluated at its final step; the others stay
+        still = per_face.expand(t == 0)
+        Jt = tuple(np.where(still, j, jt) for j, jt in zip(self.J, Jt))
+        return t, Jt, np.where(t == 0, self.E, Et), Gt, dJ
+
+    def step(self, p, t, Jt, Et, Gt, dJ, g) -> np.ndarray:
+        """Move to the step found, learn its curvature pair; returns the new gradient."""
+        islands = self.islands
+        x_new = self.x + islands.spread(t) * p
+        g_new = self.gradient(Gt)  # rows of islands that did not move are not used again
+        s_k, y_k = x_new - self.x, g_new - g
+        sy, ss = islands.dot(s_k, y_k), islands.dot(s_k, s_k)
+        good = (t > 0) & (sy > 1e-12 * ss)
+        if good.any():
+            s_k, y_k = np.where(islands.spread(good), s_k, 0.0), np.where(islands.spread(good), y_k, 0.0)
+            rho = np.where(good, 1.0 / np.where(good, sy, 1.0), 0.0)
+            self.memory = [*self.memory, (s_k, y_k, rho)][-_MEMORY:]
+            # scale the proxy to the curvature seen along the step, s^T H s / s^T y, with
+            # s^T K s = t^2 sum_f w_f A_f |dJ_f|^2 from the Jacobians at hand
+            wa = self.area * self.proxy.weights
+            sKs = t * t * self.per_face.sum(wa * (dJ[0] * dJ[0] + dJ[1] * dJ[1] + dJ[2] * dJ[2] + dJ[3] * dJ[3]))
+            whisper = np.repeat(self.proxy.whisper, 2).reshape(-1, 2)
+            sHs = 2.0 * (sKs + islands.dot(s_k, s_k * whisper))
+            self.gamma = np.where(good, sHs / np.where(good, sy, 1.0), self.gamma)
+        self.x, self.J, self.E = x_new, Jt, Et
+        return g_new
+
+    def converged(self) -> None:
+        """Stop the islands whose energy fell by less than ``tol`` over the last
+        ``_WINDOW`` iterations, or by less than ``tol / 100`` over the last one (an island
+        that was converged when the descent began)."""
+        last = self.history[-1] if self.history else None
+        self.history = [*self.history, self.E][-(_WINDOW + 1) :]
+        if last is not None:
+            self.active &= ~(last - self.E < 0.01 * self.tol * self.E)
+        if len(self.history) > _WINDOW:
+            self.active &= ~(self.history[0] - self.E < self.tol * self.E)
+
+
+@dataclass
+class _Carry:
+    """The state handed to the islands that go on alone (see :func:`_go_on_alone`)."""
+
+    memory: list
+    gamma: np.ndarray
+    history: list
+    refreshed_energy: np.ndarray
+    refreshed_at: np.ndarray
+    reweighting: np.ndarray
+    weights: np.ndarray
 
 
 def refine(
@@ -290,25 +622,17 @@ def refine(
     faces: np.ndarray,
     uv: np.ndarray,
     islands: Islands,
-    he_twin: np.ndarray,
+    he_twin: np.ndarray | None,
     *,
-    iterations: int = 100,
-    tol: float = 1e-5,
+    iterations: int = 1000,
+    tol: float = 2e-4,
     arap: int = 10,
     pinned: np.ndarray | None = None,
     order: np.ndarray | None = None,
     proxy: Proxy | None = None,
-    carry: tuple | None = None,
+    carry: _Carry | None = None,
 ) -> Refinement:
     """Lower the symmetric Dirichlet energy of a layout without folding it.
-
-    Every island is its own problem: it has its own step lengths and L-BFGS memory and
-    stops on its own, so one hard island neither slows nor stops the others. Each
-    iteration still costs a pass over every island, so once the islands still descending
-    hold at most ``_HANDOVER`` of the rows they go on alone, with their own factored
-    proxy (measured: Suzanne with no seams, closed and cut open, takes all 100 iterations;
-    beside a 100k-vertex peaks, done after 16, the refinement took 14 s, ~1.8 s for
-    peaks alone).
 
     Parameters
     ----------
@@ -319,256 +643,152 @@ def refine(
         The seed, in mesh units, islands counter-clockwise.
     islands : Islands
     he_twin : (3m,) int64
-        Twin half-edges of ``faces`` (boundary loops for the Tutte fallback).
+        Twin half-edges of ``faces`` (boundary loops for the Tutte start).
     iterations : int
-        At most this many descent steps.
+        At most this many descent steps (a safety net: islands stop when converged).
     tol : float
-        An island stops when an iteration lowers its energy by less than this, relative.
+        An island stops when its energy fell by less than this, relative, over the last
+        ``_WINDOW`` iterations.
     arap : int
-        ARAP local/global steps before the descent (an island stops taking them when one
-        would fold it or not lower its symmetric Dirichlet energy): measured on a
-        100k-vertex peaks, 10 of them cut the descent from ~190 to ~32 iterations.
+        ARAP steps before the descent, on islands near isometric (see
+        :meth:`_Descent.local_global`).
     pinned : (n,) bool, optional
         Vertices that keep their UV.
     order : (n,) int64, optional
-        Fill-reducing order for the factorization (e.g. the nested dissection of Step 3).
+        Fill-reducing order for the factorizations (e.g. the nested dissection of Step 3).
     proxy : Proxy, optional
-        A proxy built beforehand by :func:`quadratic_proxy`; used if its pins are ours.
-    carry : (memory, gamma), optional
-        The L-BFGS state of the refinement these islands are handed over from (see
-        ``_go_on_alone``): the descent goes on where it was, with no restart from a
-        conformal map (``he_twin`` is not used) and no ARAP.
+        A cotangent proxy built beforehand by :func:`quadratic_proxy`; used if its pins
+        are ours.
+    carry : _Carry, optional
+        The state of the refinement these islands are handed over from: the descent
+        goes on where it was, with no new start and no ARAP.
 
     Returns
     -------
     Refinement
     """
     t0 = time.perf_counter()
-    n = len(X)
+    n, k = len(X), islands.n
     pinned = np.zeros(n, dtype=bool) if pinned is None else pinned
-    if proxy is None or not np.array_equal(proxy.pinned, pinned):
-        proxy = quadratic_proxy(X, faces, islands, pinned, order)
-    frames, H, perm, lu = proxy.frames, proxy.H, proxy.perm, proxy.lu
-    area = frames.area
-    per_face = Islands.labelled(islands.label[faces[:, 0]], islands.n)
-    none = np.zeros(islands.n, dtype=bool)
-    out = Refinement(
-        np.array(uv, dtype=np.float64, copy=True),
-        none,
-        none,
-        np.zeros(islands.n),
-        np.zeros(islands.n),
-        (np.zeros(islands.n), np.zeros(islands.n)),
-    )
-    if carry is None:
-        x, stuck, out.restarted_conformal, out.restarted_tutte = _reseed(
-            X, faces, out.uv, he_twin, islands, frames, per_face, pinned, order
-        )
-    else:
-        x, stuck = out.uv, np.zeros(islands.n, dtype=bool)
-    # islands that still fold, and islands with nothing free, are left as they are
-    free_count = np.bincount(islands.label, ~pinned, minlength=islands.n)
-    active = ~stuck & (free_count > 0)
-    live_face = active[per_face.label]
-    live_area = float(area[live_face].sum())
-    every_face_live = bool(live_face.all())
-    fixed = np.flatnonzero(pinned)
-
-    def energies(J):
-        """Per-island energy (0 for islands left alone: they may hold folds) and the
-        per-face derivatives dE/dJ, which :func:`gradient` turns into dE/duv."""
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            e, G = _energy_terms(*J, area)
-        return per_face.sum(e if every_face_live else np.where(live_face, e, 0.0)), G
-
-    def gradient(G):
-        if not every_face_live:
-            G = [np.where(live_face, Gk, 0.0) for Gk in G]
-        g = np.stack([frames.DxT @ G[0] + frames.DyT @ G[1], frames.DxT @ G[2] + frames.DyT @ G[3]], axis=1)
-        g[pinned] = 0.0
-        return g
-
-    # row gathers through np.take (fancy indexing of (n, 2) rows is 8x slower); pinned
-    # vertices read the zero row appended to the solution
-    slot = np.full(n, len(perm), dtype=np.int64)
-    slot[perm] = np.arange(len(perm))
-
-    def precondition(g):  # H^{-1} g; H is block diagonal, so islands stay independent
-        if lu is None:
-            return np.zeros_like(g)
-        y = solve_columns(lu, np.take(g, perm, axis=0))
-        return np.take(np.vstack([y, np.zeros((1, y.shape[1]))]), slot, axis=0)
-
-    J = frames.jacobians(x)
-    E, G = energies(J)
-    history = [E]  # per island, the seed's and each ARAP step's
-    # ARAP first (Liu et al. 2008): large, cheap moves with the same factorization
-    stepping = active.copy()
-    for _ in range(arap):  # local/global steps
-        a, b, c, d = J
-        # the rotation closest to each Jacobian: (cos, sin) along (a + d, c - b), no
-        # trigonometry (arctan2, cos and sin took 11 ms per step at 200k faces)
-        cs, sn = a + d, c - b
-        h = np.hypot(cs, sn)
-        flat = h == 0  # arctan2(0, 0) = 0: the identity
-        h = area / np.where(flat, 1.0, h)
-        cs = np.where(flat, area, cs * h)
-        sn *= h
-        rhs = 2.0 * np.stack([frames.DxT @ cs - frames.DyT @ sn, frames.DxT @ sn + frames.DyT @ cs], axis=1)
-        if fixed.size:
-            rhs -= H[:, fixed] @ x[fixed]
-        y = precondition(rhs)
-        y[pinned] = x[pinned]
-        Jy = frames.jacobians(y)
-        folds = per_face.sum((Jy[0] * Jy[3] - Jy[1] * Jy[2]) <= 0) > 0
-        Ey, Gy = energies(Jy)
-        take = stepping & ~folds & (Ey < E)
-        if not take.any():
-            break
-        x = np.where(islands.spread(take), y, x)
-        J = tuple(np.where(per_face.expand(take), jy, j) for jy, j in zip(Jy, J))
-        G = [np.where(per_face.expand(take), gy, gk) for gy, gk in zip(Gy, G)]
-        E = np.where(take, Ey, E)
-        stepping = take  # an island that declines once has reached ARAP's reach
-        history.append(E)
-        out.arap_iterations += 1
-    # an island whose energy is still infinite (a face whose det J squared underflows, and
-    # ARAP found no better: fuzzing, every vertex on one point and pins apart) is left as
-    # it is: the descent's inf - inf made its UVs NaN
-    endless = active & ~np.isfinite(E)
-    if endless.any():
-        active &= ~endless
-        live_face = active[per_face.label]
-        live_area = float(area[live_face].sum())
-        every_face_live = bool(live_face.all())
-        E, G = energies(J)
-        history = [np.where(endless, 0.0, h) for h in history]
-    out.energy += [float(h.sum()) / max(live_area, 1e-300) for h in history]
-    g = gradient(G)
-    memory = []  # L-BFGS pairs (s, y, rho per island); an island's rho is 0 where unused
-    whisper = np.repeat(proxy.whisper, 2).reshape(-1, 2)  # per row and column: no (n, 1) broadcast
-    gamma = np.ones(islands.n)  # per-island scale of the proxy, from the last good pair
     if carry is not None:
-        memory, gamma = carry
+        proxy = quadratic_proxy(X, faces, islands, pinned, order, weights=carry.weights)
+    elif proxy is None or not np.array_equal(proxy.pinned, pinned):
+        proxy = quadratic_proxy(X, faces, islands, pinned, order)
+    none = np.zeros(k, dtype=bool)
+    out = Refinement(
+        np.array(uv, dtype=np.float64, copy=True), none, none, np.zeros(k), np.zeros(k), (np.zeros(k), np.zeros(k))
+    )
+    per_face = Islands.labelled(islands.label[faces[:, 0]], k)
+    x, stuck = out.uv, none
+    if carry is None:
+        x, stuck, out.restarted_conformal, out.restarted_tutte = _start(
+            X, faces, out.uv, he_twin, islands, proxy.frames, per_face, pinned, order
+        )
+    # islands that still fold, and islands with nothing free, are left as they are
+    d = _Descent(X, faces, x, islands, pinned, proxy, tol, out)
+    d.begin(~stuck & (np.bincount(islands.label, ~pinned, minlength=k) > 0))
+    if carry is None:
+        d.local_global(arap)
+        _leave_endless(d)
+    else:
+        d.memory, d.gamma, d.history = carry.memory, carry.gamma, carry.history
+        d.refreshed_energy, d.refreshed_at, d.reweighting = (
+            carry.refreshed_energy,
+            carry.refreshed_at,
+            carry.reweighting,
+        )
+    out.energy += [float(e.sum()) / max(d.live_area, 1e-300) for e in d.trace]
+    g = d.gradient(d.G)
     for it in range(1, iterations + 1):  # quasi-Newton steps, each one factored solve
-        q = np.where(islands.spread(active), g, 0.0)
-        alphas = []
-        for s_k, y_k, rho in reversed(memory):
-            a_k = rho * islands.dot(s_k, q)
-            alphas.append(a_k)
-            q -= islands.spread(a_k) * y_k
-        r = precondition(q) * islands.spread(gamma)
-        for a_k, (s_k, y_k, rho) in zip(reversed(alphas), memory):
-            r += islands.spread(a_k - rho * islands.dot(y_k, r)) * s_k
-        p = -r
-        slope = islands.dot(g, p)
-        lost = active & (slope >= 0)
-        if lost.any():  # not a descent direction: those islands forget and use the proxy
-            memory = [(s_k, y_k, np.where(lost, 0.0, rho)) for s_k, y_k, rho in memory]
-            gamma[lost] = 1.0
-            p = np.where(islands.spread(lost), -precondition(np.where(islands.spread(lost), g, 0.0)), p)
-            slope = islands.dot(g, p)
-        p = np.where(islands.spread(active), p, 0.0)
-        dJ = frames.jacobians(p)
-        t = np.where(active, np.minimum(1.0, 0.9 * per_face.min(_max_step(J, dJ, 1.0 / 0.9))), 0.0)
-        searching = active.copy()
-        Jt = None
-        while searching.any():  # backtracking (Armijo), island by island
-            f = None if Jt is None else per_face.members(searching)
-            if f is None or 2 * len(f) > len(area):
-                Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(J, dJ))
-                Et, Gt = energies(Jt)
-                Gt = list(Gt)
-            else:  # few faces still searching: evaluate only theirs, the rest stands
-                tf = t[per_face.label[f]]
-                Jf = [np.take(j, f) + tf * np.take(dj, f) for j, dj in zip(J, dJ)]
-                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                    ef, Gf = _energy_terms(*Jf, np.take(area, f))
-                for k in range(4):
-                    Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
-                Et = np.where(searching, np.bincount(per_face.label[f], ef, minlength=islands.n), Et)
-            searching &= ~(Et <= E + 1e-4 * t * slope)
-            t[searching] *= 0.5
-            gone = searching & (t < 1e-12)
-            t[gone] = 0.0
-            active &= ~gone  # no decrease along a descent direction: as far as it goes
-            searching &= ~gone
+        d.refresh(it)
+        p, slope = d.direction(g)
+        t, Jt, Et, Gt, dJ = d.line_search(p, slope)
         if not (t > 0).any():
             break
-        # every island that moved was last evaluated at its final step; the others stay
-        still = per_face.expand(t == 0)
-        Jt = tuple(np.where(still, j, jt) for j, jt in zip(J, Jt))
-        Et = np.where(t == 0, E, Et)
-        x_new = x + islands.spread(t) * p
-        g_new = gradient(Gt)  # rows of islands that did not move are not used again
-        s_k, y_k = x_new - x, g_new - g
-        sy, ss = islands.dot(s_k, y_k), islands.dot(s_k, s_k)
-        good = (t > 0) & (sy > 1e-12 * ss)
-        if good.any():
-            s_k, y_k = np.where(islands.spread(good), s_k, 0.0), np.where(islands.spread(good), y_k, 0.0)
-            rho = np.where(good, 1.0 / np.where(good, sy, 1.0), 0.0)
-            memory.append((s_k, y_k, rho))
-            memory = memory[-_MEMORY:]
-            # scale the proxy to the curvature seen along the step, s^T H s / s^T y, with
-            # s^T K s = t^2 sum_f A_f |dJ_f|^2 from the Jacobians at hand (no product with H)
-            sKs = t * t * per_face.sum(area * (dJ[0] * dJ[0] + dJ[1] * dJ[1] + dJ[2] * dJ[2] + dJ[3] * dJ[3]))
-            sHs = 2.0 * (sKs + islands.dot(s_k, s_k * whisper))
-            gamma = np.where(good, sHs / np.where(good, sy, 1.0), gamma)
-        active &= ~(E - Et < tol * Et)
-        x, J, E, g = x_new, Jt, Et, g_new
-        out.energy.append(float(E.sum()) / live_area)
+        g = d.step(p, t, Jt, Et, Gt, dJ, g)
+        d.converged()
+        out.energy.append(float(d.E.sum()) / d.live_area)
         out.iterations = it
-        if not active.any():
+        if not d.active.any():
             break
-        if it < iterations and islands.size[active].sum() <= _HANDOVER * n:
-            rows, sub, sub_area = _go_on_alone(
-                X, faces, x, islands, active, per_face, pinned, iterations - it, tol, (memory, gamma), area
-            )
-            x = x.copy()
-            x[rows] = sub.uv
-            E = E.copy()
-            E[active] = sub.island_energy
-            # the energy over every live face: the islands handed over, the others as they stopped
-            rest = float(E[~active].sum())
-            out.energy += [(rest + e * sub_area) / live_area for e in sub.energy[1:]]
-            out.iterations = it + sub.iterations
+        if it < iterations and islands.size[d.active].sum() <= _HANDOVER * n:
+            _go_on_alone(d, iterations - it, it)
             break
-    out.uv = x
-    out.island_energy, out.island_area = E, per_face.sum(np.where(live_face, area, 0.0))
-    a, b, c, d = frames.jacobians(x)  # from x: a hand-over leaves J behind
-    fro, det = a * a + b * b + c * c + d * d, a * d - b * c
+    return _finish(d, out, t0)
+
+
+def _leave_endless(d: _Descent) -> None:
+    """Leave alone the islands whose energy is still infinite after ARAP (a face whose det
+    J squared underflows): a descent from there would compute inf - inf."""
+    endless = d.active & ~np.isfinite(d.E)
+    if not endless.any():
+        return
+    d.set_active(d.active & ~endless)
+    d.E, d.G = d.energies(d.J)
+    d.trace = [np.where(endless, 0.0, e) for e in d.trace]
+
+
+def _finish(d: _Descent, out: Refinement, t0: float) -> Refinement:
+    out.uv = d.x
+    out.island_energy = d.E
+    out.island_area = d.per_face.sum(np.where(d.live_face, d.area, 0.0))
+    a, b, c, e = d.frames.jacobians(d.x)  # from x: a hand-over leaves J behind
+    fro, det = a * a + b * b + c * c + e * e, a * e - b * c
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = fro / (det * det)
-    out.island_parts = tuple(per_face.sum(np.where(live_face, area * t, 0.0)) for t in (fro, inv))
-    out.folded = int((signed_double_areas(x, faces) <= 0).sum())
+    out.island_parts = (
+        d.per_face.sum(np.where(d.live_face, d.area * fro, 0.0)),
+        d.per_face.sum(np.where(d.live_face, d.area * inv, 0.0)),
+    )
+    out.folded = int((signed_double_areas(d.x, d.faces) <= 0).sum())
     out.seconds = time.perf_counter() - t0
     return out
 
 
-def _go_on_alone(X, faces, x, islands: Islands, active, per_face: Islands, pinned, iterations, tol, state, area):
-    """:func:`refine` for the ``active`` islands alone, from their layout in ``x`` and
-    their part of the L-BFGS ``state`` (memory, gamma): their rows and faces, and a
-    nested-dissection order and proxy of their own (the proxy's blocks are what they
-    are in the whole, so the descent goes on as it would have). Returns their rows, the
-    :class:`Refinement` and the 3D area of their faces."""
+def _go_on_alone(d: _Descent, iterations: int, done: int) -> None:
+    """:func:`refine` for the active islands of ``d`` alone, from where they are, with
+    their part of the L-BFGS state and of the proxy's weights, a nested-dissection order
+    of their own and their own factorizations (the proxy's blocks are what they are in
+    the whole, so the descent goes on as it would have); their result goes into ``d``
+    and ``d.out``."""
+    active, islands = d.active, d.islands
     rows, sub = islands.subset(active)
-    index = np.full(len(X), -1, dtype=np.int64)
+    index = np.full(len(d.X), -1, dtype=np.int64)
     index[rows] = np.arange(len(rows))
-    f = per_face.members(active)
-    F_sub = index[faces[f]]
-    X_sub = np.take(X, rows, axis=0)
+    f = d.per_face.members(active)
+    F_sub = index[d.faces[f]]
+    X_sub = np.take(d.X, rows, axis=0)
+    carry = _Carry(
+        memory=[(s_k[rows], y_k[rows], rho[active]) for s_k, y_k, rho in d.memory],
+        gamma=d.gamma[active],
+        history=[h[active] for h in d.history],
+        refreshed_energy=d.refreshed_energy[active],
+        refreshed_at=d.refreshed_at[active] - done,
+        reweighting=d.reweighting[active],
+        weights=d.proxy.weights[f],
+    )
     order = nested_dissection(X_sub, unique_edges(F_sub))
     result = refine(
         X_sub,
         F_sub,
-        x[rows],
+        d.x[rows],
         sub,
         None,
         iterations=iterations,
-        tol=tol,
+        tol=d.tol,
         arap=0,
-        pinned=pinned[rows],
+        pinned=d.pinned[rows],
         order=order,
-        carry=([(s_k[rows], y_k[rows], rho[active]) for s_k, y_k, rho in state[0]], state[1][active]),
+        carry=carry,
     )
-    return rows, result, float(area[f].sum())
+    d.x = d.x.copy()
+    d.x[rows] = result.uv
+    E = d.E.copy()
+    E[active] = result.island_energy
+    # the energy over every live face: the islands handed over, the others as they stopped
+    rest = float(E[~active].sum())
+    sub_area = float(d.area[f].sum())
+    d.out.energy += [(rest + e * sub_area) / d.live_area for e in result.energy[1:]]
+    d.out.iterations = done + result.iterations
+    d.out.proxies += result.proxies
+    d.E = E
