@@ -102,7 +102,7 @@ def main(argv=None) -> int:
     for name in args.meshes:
         V, F = load(name)
         solve = lambda V=V, F=F: parametrize(  # noqa: E731
-            V, F, split_bowties=True, refine=args.refine, extra_cuts=args.extra_cuts
+            V, F, split_nonmanifold=True, refine=args.refine, extra_cuts=args.extra_cuts
         )
         times, r = [], None
         for _ in range(args.repeat):  # timed solves
@@ -128,7 +128,7 @@ def main(argv=None) -> int:
             noisy = parametrize(
                 V * (1 + 1e-12 * rng.standard_normal(V.shape)),
                 F,
-                split_bowties=True,
+                split_nonmanifold=True,
                 refine=args.refine,
                 extra_cuts=args.extra_cuts,
             )

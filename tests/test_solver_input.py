@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import InvalidMeshError, IsoparamError, parametrize
+from isoparam_addon.solver import InvalidMeshError, IsoparamError, metrics, parametrize
 from isoparam_eval import meshes as ex
 
 
@@ -91,21 +91,55 @@ def test_repeated_vertex_in_a_face():
 def test_duplicate_face():
     V, F = square()
     F = np.vstack([F, [2, 0, 1]])
-    raises("duplicate_face", V, F, r"1 face repeats the vertices of an earlier face \(first: face 2\)")
+    raises(
+        "duplicate_face",
+        V,
+        F,
+        r"1 face repeats the vertices of an earlier face \(first: face 2\)",
+        split_nonmanifold=False,
+    )
 
 
 def test_edge_shared_by_three_faces():
     V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]], dtype=float)
     F = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
-    err = raises("non_manifold_edge", V, F, r"1 edge is shared by more than two faces \(first: edge \(0, 1\)\)")
+    err = raises(
+        "non_manifold_edge",
+        V,
+        F,
+        r"1 edge is shared by more than two faces \(first: edge \(0, 1\)\)",
+        split_nonmanifold=False,
+    )
     assert err.edges.tolist() == [[0, 1]]
 
 
 def test_bow_tie_vertex():
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]], dtype=float)
     F = np.array([[0, 1, 2], [0, 3, 4]])
-    err = raises("non_manifold_vertex", V, F, r"1 vertex joins faces that share no edge .*\(first: vertex 0\)")
+    err = raises(
+        "non_manifold_vertex",
+        V,
+        F,
+        r"1 vertex joins faces that share no edge .*\(first: vertex 0\)",
+        split_nonmanifold=False,
+    )
     assert err.indices.tolist() == [0]
+
+
+def test_what_is_not_a_manifold_is_split_as_blender_does_and_warned():
+    # a repeated face, an edge of three faces, a bow-tie: the default splits them (each
+    # piece exact), says so, and names the first of each
+    V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1], [0, -2, 0], [1, -2, 0]], float)
+    F = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4], [3, 5, 6], [2, 0, 1]])
+    r = parametrize(V, F)
+    kinds = {w.kind: w for w in r.warnings}
+    assert kinds["duplicate_faces"].text.startswith("1 face repeats the vertices of an earlier face (first: face 4)")
+    assert kinds["non_manifold_edges"].text.startswith("1 edge is shared by more than two faces (first: edge (0, 1))")
+    assert kinds["bowties"].count == 1 and kinds["bowties"].first == (3,)
+    # each face on its own: the three around the edge, the repeated one, the bow-tie's wing
+    assert r.n_islands == 5 and np.isfinite(r.corner_uv).all() and not r.flipped.any()
+    l3, l2 = metrics.edge_lengths(V, F, r.corner_uv)
+    np.testing.assert_allclose(l2, l3, rtol=1e-12)
 
 
 def test_bad_seams():
@@ -207,7 +241,7 @@ def test_pinned_islands_collapsed_to_a_point_give_finite_uvs():
         [0.5635054, 0.7434769],
     ]
     seams = [[2, 0], [0, 5], [3, 8]]
-    r = parametrize(V, F, seams, split_bowties=True, refine=100, pins=(locked, old))
+    r = parametrize(V, F, seams, split_nonmanifold=True, refine=100, pins=(locked, old))
     assert np.isfinite(r.uv).all() and np.isfinite(r.corner_uv).all()
     assert np.isfinite(r.stats.refine_energy[1:]).all()  # the seed's is infinite
     np.testing.assert_array_equal(r.corner_uv[locked], old[locked])

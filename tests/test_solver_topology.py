@@ -151,7 +151,7 @@ def test_bow_ties_can_be_split_instead_of_rejected():
     # two triangles touching at vertex 0, as a selection in Blender can leave them
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]], dtype=float)
     F = np.array([[0, 1, 2], [0, 3, 4]])
-    r = parametrize(V, F, split_bowties=True)
+    r = parametrize(V, F, split_nonmanifold=True)
     assert r.n_islands == 2
     assert np.isfinite(r.corner_uv).all()
     d = metrics.edge_lengths(V, F, r.corner_uv)
@@ -285,10 +285,10 @@ def test_flipped_faces_are_those_of_the_layout_returned():
     Fs[::5] = Fs[::5, ::-1]  # inconsistent input orientation: the solver reverses these
     for Vi, Fi in ((V, F), (Vs + [0.0, 0.0, 1e6], Fs)):
         for refine, pack in ((0, True), (100, True), (20, False)):
-            r = parametrize(Vi, Fi, refine=refine, pack=pack, split_bowties=True)
+            r = parametrize(Vi, Fi, refine=refine, pack=pack, split_nonmanifold=True)
             e1, e2 = r.corner_uv[:, 1] - r.corner_uv[:, 0], r.corner_uv[:, 2] - r.corner_uv[:, 0]
             a = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-            reversed_ = build_topology(Vi, Fi, split_bowties=True)[2].flipped
+            reversed_ = build_topology(Vi, Fi, split_nonmanifold=True)[2].flipped
             np.testing.assert_array_equal(r.flipped, np.where(reversed_, -a, a) <= 0)
             # and the metrics count the same faces: they used the input winding, so an
             # island's faces given the other way round counted as folded

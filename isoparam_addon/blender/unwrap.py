@@ -16,6 +16,7 @@ import numpy as np
 from ..solver import InvalidMeshError, metrics, parametrize
 from ..solver.errors import counted, offenders
 from ..solver.placement import FAR, place_in_uv_space
+from ..solver.report import solver_names
 from . import mesh_io
 
 __all__ = ["STRETCH_ATTRIBUTE", "Options", "run", "show_stretch"]
@@ -46,23 +47,39 @@ _HINTS = {
 }
 
 
+def _mesh_names(sel: mesh_io.Selection):
+    """Names for the solver's elements as Blender numbers them: a triangle of the selection
+    is the mesh face it comes from, a row of its vertices a mesh vertex."""
+
+    def names(element: str, first: tuple[int, ...]) -> str:
+        if element == "face" and first[0] < len(sel.tri_poly):
+            return f"face {int(sel.tri_poly[first[0]])}"
+        if element == "vertex" and first[0] < len(sel.vert_ids):
+            return f"vertex {int(sel.vert_ids[first[0]])}"
+        if element == "edge":
+            a, b = (int(sel.vert_ids[v]) for v in first)
+            return f"edge between vertices {a} and {b}"
+        return solver_names(element, first)
+
+    return names
+
+
 def _describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
-    """The solver's message in mesh terms: its indices are rows of the selection."""
-    text = str(err)
-    if err.count:
-        first = int(err.indices[0])
-        if err.element == "vertex" and first < len(sel.vert_ids):
-            text = text.replace(f"vertex {first})", f"vertex {int(sel.vert_ids[first])})")
-        elif err.element == "face" and err.what and (err.indices < len(sel.tri_poly)).all():
-            # triangles -> the mesh faces they come from, counted once each (a quad is two)
-            poly = sel.tri_poly[err.indices]
-            _, at = np.unique(poly, return_index=True)
-            text = str(offenders(err.kind, err.what, "face", poly[np.sort(at)]))
-        elif err.element == "face" and first < len(sel.tri_poly):
-            text = text.replace(f"face {first})", f"face {int(sel.tri_poly[first])})")
-        elif err.element == "edge" and err.edges is not None:
-            a, b = (int(sel.vert_ids[v]) for v in err.edges[0])
-            text = text.replace(f"({err.edges[0][0]}, {err.edges[0][1]})", f"between vertices {a} and {b}")
+    """The solver's error in mesh terms (its indices are rows of the selection), and a hint
+    at what to do, prefixed with the mesh's name."""
+    text, hint = _overlap_words(err, sel)
+    return f"'{sel.name}': {text}" + (f". {hint}" if hint else "")
+
+
+def _overlap_words(err: InvalidMeshError, sel: mesh_io.Selection) -> tuple[str, str]:
+    """The error's sentence in mesh terms and a hint; for triangles of Blender's
+    triangulation that overlap (not faces of the mesh), the two faces they come from."""
+    text = err.worded(_mesh_names(sel))
+    if err.element == "face" and err.what and err.count and (err.indices < len(sel.tri_poly)).all():
+        # triangles -> the mesh faces they come from, counted once each (a quad is two)
+        poly = sel.tri_poly[err.indices]
+        _, at = np.unique(poly, return_index=True)
+        text = str(offenders(err.kind, err.what, "face", poly[np.sort(at)]))
     hint = _HINTS.get(err.kind, "")
     if err.kind == "duplicate_face" and err.count:
         pair = _overlapping_faces(sel, int(err.indices[0]))
@@ -96,7 +113,7 @@ def _describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
                     f"Make {which} convex (it is then split along its other diagonal), "
                     "or delete or dissolve one of the two faces"
                 )
-    return f"'{sel.name}': {text}" + (f". {hint}" if hint else "")
+    return text, hint
 
 
 def _faces_across(sel: mesh_io.Selection, edge) -> tuple[int, int, bool] | None:
@@ -325,11 +342,13 @@ def _pack(context, solved, opts: Options, pin: bool, kept: list[_Kept]) -> None:
 
 
 _OVERLAP = ("duplicate_face", "non_manifold_edge")  # what overlapping triangles raise
+_NOT_MANIFOLD = (*_OVERLAP, "non_manifold_vertex")  # what the solver splits when not strict
+_OVERLAP_WARNINGS = ("duplicate_faces", "non_manifold_edges")  # how the solver says it split them
 
 
-def _solve(sel: mesh_io.Selection, opts: Options):
+def _solve(sel: mesh_io.Selection, opts: Options, strict: bool = False):
     """The solver's result for one selection, and its triangle corners' locks (t, 3) and old
-    UVs (t, 3, 2)."""
+    UVs (t, 3, 2); ``strict``: refuse what is not a manifold instead of splitting it."""
     locked = sel.locked[sel.tri_loops]
     old = np.take(sel.uv, sel.tri_loops, axis=0).astype(np.float64)
     # a corner locked by the UV selection whose UV is not finite holds nothing in place: it
@@ -341,13 +360,38 @@ def _solve(sel: mesh_io.Selection, opts: Options):
         sel.F,
         sel.seams,
         pack=True,
-        split_bowties=True,
+        split_nonmanifold=not strict,
         refine=opts.refine,
         pins=(hold, old) if hold.any() else None,
         inner_edges=sel.diagonals,
         extra_cuts=opts.extra_cuts,
     )
     return res, locked, old
+
+
+def _solve_as_blender_would(sel: mesh_io.Selection, opts: Options):
+    """Solve one selection as Blender's unwrap takes it: where its triangulation repeats a
+    triangle or puts three faces on an edge, quads split along their other diagonal when
+    that clears it; what is still not a manifold is split (a seam, an island of its own)
+    with a warning. Returns the selection solved, the solver's result, locks and old UVs,
+    and the words on overlapping faces if they were split."""
+    try:
+        return sel, *_solve(sel, opts, strict=True), ""
+    except InvalidMeshError as err:
+        if err.kind not in _NOT_MANIFOLD:
+            raise
+        overlap = ""
+        if err.kind in _OVERLAP:  # (said as a warning if they stay: the faces, and what would clear it)
+            text, hint = _overlap_words(err, sel)
+            overlap = f"{text}: cut apart where they meet" + (f". {hint}" if hint else "")
+        other = mesh_io.other_diagonals(sel) if err.kind in _OVERLAP else None
+    if other is not None:
+        try:
+            return other, *_solve(other, opts, strict=True), ""
+        except InvalidMeshError as err:
+            if err.kind not in _NOT_MANIFOLD:
+                raise
+    return sel, *_solve(sel, opts, strict=False), overlap
 
 
 def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
@@ -364,16 +408,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
     solved = []
     for k, (ob, sel) in enumerate(selections):
         try:
-            try:
-                res, locked, old = _solve(sel, opts)
-            except InvalidMeshError as err:
-                # quads split along a diagonal that another face uses too (a triangle on it,
-                # or two quads on three vertices) overlap: try their other diagonal
-                other = mesh_io.other_diagonals(sel) if err.kind in _OVERLAP else None
-                if other is None:
-                    raise
-                sel = other
-                res, locked, old = _solve(sel, opts)
+            sel, res, locked, old, overlap = _solve_as_blender_would(sel, opts)
         except InvalidMeshError as err:
             op.report({"ERROR"}, "Isometric Unwrap: " + _describe(err, sel) + ". Nothing was changed")
             return None
@@ -407,7 +442,11 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             )
             return None
         per_face, summary = metrics.face_stretch(sel.V, sel.F, uv)
-        solved.append(_Solved(ob, sel, uv, held, res.n_islands, per_face, summary, _warnings(res)))
+        warnings = _warnings(res, sel)
+        if overlap:  # the same cut in the triangulation's terms, which Select Non Manifold cannot show
+            gone = {w.worded(_mesh_names(sel)) for w in res.warnings if w.kind in _OVERLAP_WARNINGS}
+            warnings = [overlap] + [w for w in warnings if w not in gone]
+        solved.append(_Solved(ob, sel, uv, held, res.n_islands, per_face, summary, warnings))
     return solved
 
 
@@ -430,11 +469,13 @@ def _write_stretch(me, sel: mesh_io.Selection, distortion: np.ndarray) -> None:
     mesh_io.write_face_colours(me, STRETCH_ATTRIBUTE, metrics.stretch_colours(worst), faces)
 
 
-def _warnings(res) -> list[str]:
-    """The solver's warnings, as they hold for what the operator writes: the solver holds a
-    vertex whose corners are pinned to different UVs at their mean, but pins never move here
+def _warnings(res, sel: mesh_io.Selection) -> list[str]:
+    """The solver's warnings, with mesh faces and vertices named as Blender numbers them,
+    as they hold for what the operator writes: the solver holds a vertex whose corners are
+    pinned to different UVs at their mean, but pins never move here
     (``place_in_uv_space`` puts every pinned corner back on its own UV)."""
-    out = [w.text for w in res.warnings if w.kind != "pin_conflict"]
+    names = _mesh_names(sel)
+    out = [w.worded(names) for w in res.warnings if w.kind != "pin_conflict"]
     if res.stats.pin_conflicts:
         out.append(
             f"{counted(res.stats.pin_conflicts, 'pinned vertex has', 'pinned vertices have')} corners pinned "

@@ -30,7 +30,7 @@ from .geometry import corner_signed_areas, face_areas, signed_areas
 from .islands import Islands
 from .mesh import HalfEdges, edge_mask, unit_of
 from .options import Options, Problem
-from .pipeline import opened_warnings, solve
+from .pipeline import TOPOLOGY_WARNINGS, solve, topology_warnings
 from .placement import pack_islands
 from .report import lowered, warnings
 from .result import Parametrization, per_corner_and_vertex
@@ -174,8 +174,9 @@ def with_extra_cuts(problem: Problem, options: Options) -> Parametrization:
         else:
             best = _merge(first, kept, replace(problem, seams=seams), options)
         best.cut_edges, best.cut_islands = cuts, first.cut_islands
-        cut_warnings = [w for w in first.warnings if w.kind.startswith("cut_")]
-        best.warnings = [*cut_warnings, *lowered(added, before, score), *best.warnings]
+        topology = [w for w in first.warnings if w.kind in TOPOLOGY_WARNINGS]
+        rest = [w for w in best.warnings if w.kind not in TOPOLOGY_WARNINGS]
+        best.warnings = [*topology, *lowered(added, before, score), *rest]
     best.timings.extra_cuts = time.perf_counter() - t0
     best.timings.total = first.timings.total + best.timings.extra_cuts
     best.stats.extra_cut_tries, best.stats.extra_cut_edges, best.stats.extra_cut_gains = tries, added, gains
@@ -268,9 +269,9 @@ def _sub_problem(problem: Problem, faces: np.ndarray, options: Options) -> tuple
 
     pins = None if problem.pins is None else (np.asarray(problem.pins[0])[faces], np.asarray(problem.pins[1])[faces])
     part = Problem(V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins)
-    # split_bowties: two wedges of an island around a vertex that other islands' faces
+    # split_nonmanifold: two wedges of an island around a vertex that other islands' faces
     # separated (with seams) meet at a bare vertex once those faces are left out
-    return part, replace(options, pack=False, split_bowties=True)
+    return part, replace(options, pack=False, split_nonmanifold=True)
 
 
 def _merge(first: Parametrization, kept: list, problem: Problem, options: Options) -> Parametrization:
@@ -287,7 +288,7 @@ def _merge(first: Parametrization, kept: list, problem: Problem, options: Option
     """
     t0 = time.perf_counter()
     V, F = first.vertices, first.faces
-    _, _, topo = build_topology(V, F, problem.seams, options.split_bowties, problem.inner_edges)
+    _, _, topo = build_topology(V, F, problem.seams, options.split_nonmanifold, problem.inner_edges)
     same = topo.n_islands == first.n_islands and np.array_equal(topo.face_island, first.face_island)
     if not same or topo.cut_islands.size:  # not expected (a slit keeps one disk): solve it all
         return solve(replace(problem, vertices=V, faces=F), options)
@@ -332,7 +333,7 @@ def _merge(first: Parametrization, kept: list, problem: Problem, options: Option
         vertices=V,
         faces=F,
         turned=topo.flipped,
-        warnings=opened_warnings(topo) + warnings(report, converged, flipped, unused),
+        warnings=topology_warnings(topo) + warnings(report, converged, flipped, unused),
         timings=timings,
         stats=stats,
     )

@@ -47,6 +47,15 @@ class InvalidMeshError(IsoparamError, ValueError):
     def count(self) -> int:
         return int(self.indices.size)
 
+    def worded(self, names) -> str:
+        """The message with the first offender named by ``names(element, first)`` (a vertex
+        pair for an edge), for a caller that numbers elements its own way; as raised for
+        messages not made by :func:`offenders`."""
+        if not self.what or not self.count:
+            return str(self)
+        first = tuple(int(v) for v in self.edges[0]) if self.edges is not None else (int(self.indices[0]),)
+        return _sentence(self.count, self.element, self.what, names(self.element, first))
+
 
 class SolverError(IsoparamError, RuntimeError):
     """A valid mesh on which the numerical method failed (reported, never NaN)."""
@@ -61,20 +70,20 @@ def offenders(kind: str, what: str, element: str, indices, edges=None) -> Invali
     """
     indices = np.asarray(indices, dtype=np.int64).ravel()
     count = indices.size
-    plural = element if count == 1 else {"vertex": "vertices"}.get(element, element + "s")
-    first = f"{element} {indices[0]}" if count else ""
-    if edges is not None and count:
-        a, b = np.asarray(edges)[0]
-        first = f"edge ({a}, {b})"
-    err = InvalidMeshError(
-        kind,
-        f"{count} {plural} {(_singular_verb(what) if count == 1 else what)} (first: {first})",
-        element,
-        indices,
-        edges,
-    )
-    err.what = what  # (a caller that counts other elements words it again: see the add-on)
+    first = ""
+    if count:
+        first = f"{element} {indices[0]}"
+        if edges is not None:
+            a, b = np.asarray(edges)[0]
+            first = f"edge ({a}, {b})"
+    err = InvalidMeshError(kind, _sentence(count, element, what, first), element, indices, edges)
+    err.what = what
     return err
+
+
+def _sentence(count: int, element: str, what: str, first: str) -> str:
+    plural = element if count == 1 else {"vertex": "vertices"}.get(element, element + "s")
+    return f"{count} {plural} {(_singular_verb(what) if count == 1 else what)} (first: {first})"
 
 
 _SINGULAR = {"have": "has", "are": "is", "index": "indexes", "use": "uses", "repeat": "repeats", "join": "joins"}

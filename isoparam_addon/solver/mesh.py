@@ -19,6 +19,7 @@ island
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -63,30 +64,100 @@ def _array(x, name: str, dtype) -> np.ndarray:
         raise InvalidMeshError("shape", f"{name} must be an array of numbers: {e}") from None
 
 
-def check(vertices, faces, split_bowties: bool = False):
+class Defects(NamedTuple):
+    """What :func:`check` found non-manifold and split instead of refusing, as Blender's own
+    unwrap does: each piece becomes its own island part (k,) int64 each."""
+
+    duplicate_faces: np.ndarray  # faces that repeat the vertices of an earlier face
+    edges: np.ndarray  # (k, 2) vertex pairs of the edges shared by more than two faces
+    bowties: np.ndarray  # vertices joining faces that share no edge around them
+
+    @property
+    def any(self) -> bool:
+        return bool(len(self.duplicate_faces) or len(self.edges) or len(self.bowties))
+
+    @classmethod
+    def none(cls) -> Defects:
+        empty = np.zeros(0, dtype=np.int64)
+        return cls(empty, np.zeros((0, 2), dtype=np.int64), empty)
+
+
+def check(vertices, faces, split_nonmanifold: bool = True):
     """Check a triangle mesh and return float64 / int64 copies.
 
     Parameters
     ----------
     vertices : (n, 3) array_like of float
     faces : (m, 3) array_like of int
+    split_nonmanifold : bool
+        Split what is not a manifold, as Blender's unwrap does, instead of raising: a
+        face that repeats an earlier face's vertices becomes an island of its own, an
+        edge shared by more than two faces a seam, and a vertex whose faces form several
+        fans (a bow-tie) one vertex per fan.
 
     Returns
     -------
     V : (n, 3) float64, F : (m, 3) int64
         Fresh arrays; the caller's arrays are never modified.
     he : HalfEdges
-        Of F.
+        Of F (a repeated face's half-edges and those of an edge shared by more than two
+        faces have no twin).
     fan : Fans or None
-        The ordered fans of F when F is consistently oriented.
+        The ordered fans of F when F is consistently oriented and a manifold.
+    defects : Defects
+        What was split.
 
     Raises
     ------
     InvalidMeshError
         Empty mesh, wrong shapes, non-finite coordinates, indices out of range, a vertex
-        repeated inside a face, the same face twice, an edge shared by more than two
-        faces, or a vertex whose faces do not form one fan.
+        repeated inside a face; and without ``split_nonmanifold``, the same face twice, an
+        edge shared by more than two faces, or a vertex whose faces do not form one fan.
     """
+    V, F = _arrays(vertices, faces)
+    n = len(V)
+    s = _sort_rows(F)
+    fkey = (s[:, 0] * n + s[:, 1]) * n + s[:, 2] if n < 2_000_000 else None
+    if fkey is not None:
+        order = np.argsort(fkey, kind="stable")
+        dup = order[1:][fkey[order[1:]] == fkey[order[:-1]]]
+    else:
+        _, first = np.unique(s, axis=0, return_index=True)
+        dup = np.setdiff1d(np.arange(len(F)), first)
+    dup = np.sort(dup)
+    if dup.size and not split_nonmanifold:
+        raise offenders("duplicate_face", "repeat the vertices of an earlier face", "face", dup)
+    excluded = np.zeros(len(F), dtype=bool)
+    excluded[dup] = True
+    edges = HalfEdges(F, n, excluded=excluded if dup.size else None)
+    if edges.overfull.size and not split_nonmanifold:
+        pairs = edges.edge_vertices[edges.overfull]
+        raise offenders("non_manifold_edge", "are shared by more than two faces", "edge", edges.overfull, edges=pairs)
+    if edges.consistent(F) and not edges.overfull.size and not dup.size:
+        fan = fans(F, edges.twin, n)  # walking the fans finds bow-ties, and the fans are reused
+        bad = fan.broken
+    else:  # corners joined across interior edges, whatever the orientation
+        fan = None
+        wedge = _wedge_labels(F, edges, cut=np.zeros(edges.n_edges, dtype=bool))
+        owner = np.empty(int(wedge.max()) + 1, dtype=np.int64)
+        owner[wedge] = F.ravel()  # the vertex of each wedge
+        bad = np.flatnonzero(np.bincount(owner, minlength=n) > 1)
+        # vertices of the split edges and faces have several wedges for those: not bow-ties
+        split = np.zeros(n, dtype=bool)
+        split[edges.edge_vertices[edges.overfull].ravel()] = True
+        split[F[dup].ravel()] = True
+        bad = bad[~split[bad]]
+    if bad.size and not split_nonmanifold:
+        raise offenders("non_manifold_vertex", "join faces that share no edge around them (bow-tie)", "vertex", bad)
+    if bad.size:
+        fan = None  # the fans of a bow-tie vertex are split into separate vertices later
+    return V, F, edges, fan, Defects(dup, edges.edge_vertices[edges.overfull], bad)
+
+
+def _arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
+    """Float64 / int64 copies of a triangle mesh, or the :class:`InvalidMeshError` that
+    says why it is none (empty, shapes, non-finite coordinates, indices out of range, a
+    vertex repeated inside a face)."""
     V = _array(vertices, "vertices", np.float64)
     F_in = _array(faces, "faces", None)
     if V.ndim != 2 or V.shape[1] != 3:
@@ -99,7 +170,6 @@ def check(vertices, faces, split_bowties: bool = False):
         if F_in.dtype.kind != "f" or not np.all(np.isfinite(F_in)) or np.any(F_in != np.round(F_in)):
             raise InvalidMeshError("shape", f"faces must hold integer indices, got dtype {F_in.dtype}")
     F = np.array(F_in, dtype=np.int64, copy=True)
-
     # whole-array checks first; the (slower) row-wise search only names the offenders
     if not np.isfinite(V).all():
         bad = np.flatnonzero(~np.isfinite(V).all(axis=1))
@@ -110,37 +180,7 @@ def check(vertices, faces, split_bowties: bool = False):
     bad = np.flatnonzero((F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 2] == F[:, 0]))
     if bad.size:
         raise offenders("repeated_vertex", "use the same vertex twice", "face", bad)
-
-    n = len(V)
-    s = _sort_rows(F)
-    fkey = (s[:, 0] * n + s[:, 1]) * n + s[:, 2] if n < 2_000_000 else None
-    if fkey is not None:
-        order = np.argsort(fkey, kind="stable")
-        dup = order[1:][fkey[order[1:]] == fkey[order[:-1]]]
-    else:
-        _, first, counts = np.unique(s, axis=0, return_index=True, return_counts=True)
-        dup = np.setdiff1d(np.arange(len(F)), first)
-    if dup.size:
-        raise offenders("duplicate_face", "repeat the vertices of an earlier face", "face", np.sort(dup))
-
-    edges = HalfEdges(F, n)
-    if edges.overfull.size:
-        pairs = edges.edge_vertices[edges.overfull]
-        raise offenders("non_manifold_edge", "are shared by more than two faces", "edge", edges.overfull, edges=pairs)
-    if edges.consistent(F):  # walking the fans finds bow-ties, and the fans are reused
-        fan = fans(F, edges.twin, n)
-        bad = fan.broken
-    else:  # corners joined across interior edges, whatever the orientation
-        fan = None
-        wedge = _wedge_labels(F, edges, cut=np.zeros(edges.n_edges, dtype=bool))
-        owner = np.empty(int(wedge.max()) + 1, dtype=np.int64)
-        owner[wedge] = F.ravel()  # the vertex of each wedge
-        bad = np.flatnonzero(np.bincount(owner, minlength=n) > 1)
-    if bad.size and not split_bowties:
-        raise offenders("non_manifold_vertex", "join faces that share no edge around them (bow-tie)", "vertex", bad)
-    if bad.size:
-        fan = None  # the fans of a bow-tie vertex are split into separate vertices later
-    return V, F, edges, fan
+    return V, F
 
 
 class HalfEdges:
@@ -155,12 +195,12 @@ class HalfEdges:
     edge_vertices : (e, 2) int64
         Sorted vertex pair of each undirected edge.
     edge_count : (e,) int64
-        Faces sharing each edge.
+        Faces sharing each edge (``excluded`` faces not counted).
     overfull : (k,) int64
         Edges shared by more than two faces.
     """
 
-    def __init__(self, F: np.ndarray, n: int):
+    def __init__(self, F: np.ndarray, n: int, excluded: np.ndarray | None = None):
         # int64 throughout: the edge keys below are products of vertex numbers (numpy 1.x
         # on Windows makes arange, cumsum and asarray of Python ints int32)
         F = np.asarray(F, dtype=np.int64)
@@ -168,7 +208,9 @@ class HalfEdges:
         b = rotate_faces(F).ravel()
         lo, hi = np.minimum(a, b), np.maximum(a, b)
         key = lo * np.int64(n) + hi
-        order = np.argsort(key, kind="stable")
+        # half-edges of ``excluded`` faces (m,) bool have an edge but no twin, and do not count
+        out = np.zeros(len(a), dtype=bool) if excluded is None else np.repeat(excluded, 3)
+        order = np.argsort(key, kind="stable") if excluded is None else np.lexsort((out, key))
         ks = key[order]
         start = np.ones(len(ks), dtype=bool)
         start[1:] = ks[1:] != ks[:-1]
@@ -180,10 +222,11 @@ class HalfEdges:
         self.edge_vertices = np.empty((len(first), 2), dtype=np.int64)
         np.take(lo, first, out=self.edge_vertices[:, 0])  # 1-D gathers: 3x faster than stacking
         np.take(hi, first, out=self.edge_vertices[:, 1])
-        self.edge_count = np.bincount(edge_sorted, minlength=self.n_edges)
+        self.edge_count = np.bincount(edge_sorted[~out[order]], minlength=self.n_edges)
         self.overfull = np.flatnonzero(self.edge_count > 2)
         self.twin = np.full(len(a), -1, dtype=np.int64)
-        pair = np.flatnonzero(~start[1:] & (self.edge_count[edge_sorted[1:]] == 2))
+        # an edge's first two half-edges (excluded ones sort last) pair if it has two faces
+        pair = np.flatnonzero(start[:-1] & ~start[1:] & (self.edge_count[edge_sorted[1:]] == 2) & ~out[order][1:])
         self.twin[order[pair]] = order[pair + 1]
         self.twin[order[pair + 1]] = order[pair]
 

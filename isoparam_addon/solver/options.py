@@ -23,9 +23,11 @@ class Options:
         Gap between packed islands, as a fraction of the square root of their total area.
     tol, max_iter :
         Convergence of Step 3 (sine of the subspace change) and its iteration cap.
-    split_bowties : bool
-        Split vertices whose faces form several fans (bow-ties; faces touching at one
-        vertex go to different islands, as in Blender) instead of raising.
+    split_nonmanifold : bool
+        Split what is not a manifold, as Blender's unwrap does, and warn: a face that
+        repeats another's vertices becomes an island of its own, an edge shared by more
+        than two faces a seam, a vertex whose faces form several fans (a bow-tie) one
+        vertex per fan. False raises :class:`.InvalidMeshError` instead.
     refine : int
         Iterations of isometric refinement (symmetric Dirichlet, no folds; see
         :mod:`.refinement`) after the four steps. 0 is the paper's method.
@@ -39,7 +41,7 @@ class Options:
     margin: float = 0.02
     tol: float = 1e-8
     max_iter: int = 40
-    split_bowties: bool = False
+    split_nonmanifold: bool = True
     refine: int = 0
     extra_cuts: int = 0
 

@@ -26,7 +26,7 @@ from .options import Options, Problem
 from .pins import Pins, layout_on_pins, pins_on_islands
 from .placement import place
 from .refinement import Proxy, Refinement, quadratic_proxy, refine
-from .report import IslandReport, Stats, Timings, opened, warnings
+from .report import IslandReport, Stats, Timings, defects, opened, warnings
 from .result import Parametrization, per_corner_and_vertex
 from .topology import Topology, build_topology
 from .weights import Flagged, reconstruction_weights
@@ -57,7 +57,7 @@ def solve(problem: Problem, options: Options) -> Parametrization:
         problem.vertices,
         problem.faces,
         problem.seams,
-        options.split_bowties,
+        options.split_nonmanifold,
         problem.inner_edges,
         problem.pinned_vertices(),
     )
@@ -143,15 +143,28 @@ def _result(
         vertices=V,
         faces=F,
         turned=topo.flipped,
-        warnings=opened_warnings(topo) + warnings(report, emb.converged, flipped, unused),
+        warnings=topology_warnings(topo) + warnings(report, emb.converged, flipped, unused),
         timings=clock.timings,
         stats=stats,
     )
 
 
-def opened_warnings(topo: Topology):
-    """The warnings for the islands ``topo`` cut open."""
-    return opened(topo.closed_islands, topo.handle_islands, topo.multi_boundary_islands, topo.nonorientable_islands)
+TOPOLOGY_WARNINGS = (
+    "duplicate_faces",
+    "non_manifold_edges",
+    "bowties",
+    "cut_closed",
+    "cut_handles",
+    "cut_holes",
+    "cut_nonorientable",
+)
+
+
+def topology_warnings(topo: Topology):
+    """The warnings about what the topology split or cut open."""
+    return defects(topo.defects) + opened(
+        topo.closed_islands, topo.handle_islands, topo.multi_boundary_islands, topo.nonorientable_islands
+    )
 
 
 def _proxy(X, faces, islands: Islands, pinned, plan) -> Proxy:

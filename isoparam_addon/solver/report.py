@@ -2,55 +2,89 @@
 
 Every record here is typed: a caller reads fields, never message text. A warning has a
 ``kind`` (the table in :class:`SolverWarning`), a ``count``, the ``first`` element
-concerned and its ``text``, so the operator can word or drop a case without parsing.
+concerned and a text template, so the operator can drop a case, or name elements its
+own way, without parsing.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from .errors import counted
 
-__all__ = ["IslandReport", "SolverWarning", "Stats", "Timings", "warnings"]
+__all__ = ["IslandReport", "SolverWarning", "Stats", "Timings", "defects", "opened", "solver_names", "warnings"]
 
 FAR = 1e3  # a refined island with more symmetric Dirichlet energy per area than this is reported
+
+
+Namer = Callable[[str, tuple[int, ...]], str]
+
+
+def solver_names(element: str, first: tuple[int, ...]) -> str:
+    """The solver's own names for an element: ``face 12`` (a triangle of the input),
+    ``vertex 5``, ``edge (5, 9)`` (a vertex pair), ``island 3``."""
+    if element == "edge":
+        return f"edge ({first[0]}, {first[1]})"
+    return f"{element} {first[0]}"
 
 
 @dataclass(frozen=True)
 class SolverWarning:
     """One thing about a result that its user should know.
 
-    ``kind``, and what ``count`` and ``first`` count:
+    ``kind``, and what ``count`` counts and ``element`` (``first`` names the first one):
 
-    ==================== ==========================================================
-    ``cut_closed``       islands closed, cut into disks automatically (islands)
-    ``cut_handles``      islands with handles, cut (islands)
-    ``cut_holes``        islands with several boundary loops, cut (islands)
+    ===================== ===========================================================
+    ``duplicate_faces``   faces repeating an earlier face's vertices (faces)
+    ``non_manifold_edges`` edges shared by more than two faces, cut (edges)
+    ``bowties``           vertices whose faces form several fans, split (vertices)
+    ``cut_closed``        islands closed, cut into disks automatically (islands)
+    ``cut_handles``       islands with handles, cut (islands)
+    ``cut_holes``         islands with several boundary loops, cut (islands)
     ``cut_nonorientable`` non-orientable islands, cut (islands)
-    ``extra_cuts``       edges cut further to lower distortion (edges; first: None)
-    ``not_converged``    islands on which Step 3 missed its tolerance (islands)
-    ``degenerate_scale`` islands whose Step 4 scale was clipped (islands; first: None)
-    ``degenerate_fans``  vertices with no exact reconstruction (vertices; first: None)
-    ``restarted``        islands whose four-step layout folded and was replaced (islands)
-    ``pins_on_one_uv``   islands whose pins all sit on one UV (islands)
-    ``pin_conflict``     pinned vertices whose corners have different UVs (vertices;
-                         first: an island holding one)
+    ``extra_cuts``        edges cut further to lower distortion (edges; no first)
+    ``not_converged``     islands on which Step 3 missed its tolerance (islands)
+    ``degenerate_scale``  islands whose Step 4 scale was clipped (islands; no first)
+    ``degenerate_fans``   vertices with no exact reconstruction (vertices; no first)
+    ``restarted``         islands whose four-step layout folded and was replaced (islands)
+    ``pins_on_one_uv``    islands whose pins all sit on one UV (islands)
+    ``pin_conflict``      pinned vertices whose corners have different UVs (vertices;
+                          first: an island holding one)
     ``far_from_isometric`` refined islands left far from isometric (islands)
-    ``pins_unreached``   islands whose pins could not all be reached unfolded (islands)
-    ``flipped``          triangles folded in the layout (faces)
-    ``unused_vertices``  vertices of no face, placed at (0, 0) (vertices; first: None)
-    ==================== ==========================================================
+    ``pins_unreached``    islands whose pins could not all be reached unfolded (islands)
+    ``flipped``           triangles folded in the layout (faces)
+    ``unused_vertices``   vertices of no face, placed at (0, 0) (vertices; no first)
+    ===================== ===========================================================
+
+    The text is ``template`` with ``{first}`` naming the first element; a caller that
+    numbers elements its own way (the Blender operator: mesh faces and vertices, not
+    triangles and split vertices) words it with :meth:`worded`.
     """
 
     kind: str
     count: int
-    first: int | None
-    text: str
+    element: str  # "face", "vertex", "edge", "island", or "" (no first element)
+    first: tuple[int, ...]
+    template: str
+
+    @property
+    def text(self) -> str:
+        return self.worded(solver_names)
+
+    def worded(self, names: Namer) -> str:
+        """The text, with the first element named by ``names(element, first)``."""
+        return self.template.format(first=names(self.element, self.first) if self.first else "")
 
     def __str__(self) -> str:
         return self.text
+
+
+def _warning(kind: str, count: int, element: str, first, template: str) -> SolverWarning:
+    first = () if first is None else tuple(int(i) for i in np.atleast_1d(first))
+    return SolverWarning(kind, int(count), element, first, template)
 
 
 @dataclass
@@ -188,11 +222,39 @@ def opened(closed, handles, holes, nonorientable) -> list[SolverWarning]:
         ("cut_nonorientable", "non-orientable", nonorientable),
     ):
         if len(isl):
-            text = (
+            template = (
                 f"{counted(len(isl), 'island', 'islands')} {name} {'was' if len(isl) == 1 else 'were'} cut into "
-                f"disks automatically (first: island {isl[0]}); mark seams to choose the cut"
+                "disks automatically (first: {first}); mark seams to choose the cut"
             )
-            out.append(SolverWarning(kind, len(isl), int(isl[0]), text))
+            out.append(_warning(kind, len(isl), "island", isl[0], template))
+    return out
+
+
+def defects(found) -> list[SolverWarning]:
+    """Warnings for what validation split because it was not a manifold (a
+    :class:`.mesh.Defects`), as Blender's unwrap does."""
+    out = []
+    if len(found.duplicate_faces):
+        n = len(found.duplicate_faces)
+        template = (
+            f"{counted(n, 'face repeats', 'faces repeat')} the vertices of an earlier face (first: {{first}}): "
+            f"{'it is' if n == 1 else 'each is'} laid out as an island of its own; delete the copies"
+        )
+        out.append(_warning("duplicate_faces", n, "face", found.duplicate_faces[0], template))
+    if len(found.edges):
+        n = len(found.edges)
+        template = (
+            f"{counted(n, 'edge is', 'edges are')} shared by more than two faces (first: {{first}}): cut as seams, "
+            "each fan of faces on its own side (Select > Select All by Trait > Non Manifold shows them)"
+        )
+        out.append(_warning("non_manifold_edges", n, "edge", found.edges[0], template))
+    if len(found.bowties):
+        n = len(found.bowties)
+        template = (
+            f"{counted(n, 'vertex joins', 'vertices join')} faces that share no edge around "
+            f"{'it' if n == 1 else 'them'} (first: {{first}}): split, one copy per fan"
+        )
+        out.append(_warning("bowties", n, "vertex", found.bowties[0], template))
     return out
 
 
@@ -201,11 +263,11 @@ def lowered(added: int, before: np.ndarray, score: np.ndarray) -> list[SolverWar
     distortion of the islands that were cut open, before and after)."""
     if not added:
         return []
-    text = (
+    template = (
         f"{added} more edges cut on {int((score < before).sum())} of them, lowering "
         f"their area distortion from {before.mean():.3g} to {score.mean():.3g}"
     )
-    return [SolverWarning("extra_cuts", added, None, text)]
+    return [_warning("extra_cuts", added, "", None, template)]
 
 
 def warnings(islands: IslandReport, converged: np.ndarray, flipped: np.ndarray, unused: int) -> list[SolverWarning]:
@@ -218,75 +280,75 @@ def _step_warnings(islands: IslandReport, converged: np.ndarray) -> list[SolverW
     out = []
     bad = np.flatnonzero(~converged)
     if bad.size:
-        text = (
-            f"step 3 did not converge on {bad.size} island(s) (first: island {bad[0]}, "
+        template = (
+            f"step 3 did not converge on {bad.size} island(s) (first: {{first}}, "
             f"subspace change {islands.change[bad[0]]:.1e})"
         )
-        out.append(SolverWarning("not_converged", bad.size, int(bad[0]), text))
+        out.append(_warning("not_converged", bad.size, "island", bad[0], template))
     if islands.clipped.any():
         n = int(islands.clipped.sum())
-        out.append(SolverWarning("degenerate_scale", n, None, f"step 4 fitted a degenerate scale on {n} island(s)"))
+        out.append(_warning("degenerate_scale", n, "", None, f"step 4 fitted a degenerate scale on {n} island(s)"))
     if islands.regularized.any():
         n = int(islands.regularized.sum())
-        text = f"{counted(n, 'vertex has', 'vertices have')} no exact reconstruction (degenerate fans)"
-        out.append(SolverWarning("degenerate_fans", n, None, text))
+        template = f"{counted(n, 'vertex has', 'vertices have')} no exact reconstruction (degenerate fans)"
+        out.append(_warning("degenerate_fans", n, "", None, template))
     restarted = {"conformal map": int(islands.conformal.sum()), "Tutte embedding": int(islands.tutte.sum())}
     if sum(restarted.values()):
         seeds = " and ".join(f"{k} from a {name}" for name, k in restarted.items() if k)
-        first = int(np.argmax(islands.conformal | islands.tutte))
-        text = f"the four-step layout folded on some islands; refinement restarted {seeds}"
-        out.append(SolverWarning("restarted", sum(restarted.values()), first, text))
+        first = np.argmax(islands.conformal | islands.tutte)
+        template = f"the four-step layout folded on some islands; refinement restarted {seeds}"
+        out.append(_warning("restarted", sum(restarted.values()), "island", first, template))
     # a start that crushed faces the descent could not open: the report's stretch shows
     # it, this says what to do about it
     energy, area = islands.refine_energy, islands.refine_area
     stuck = np.flatnonzero((area > 0) & (energy > FAR * area) & ~islands.shaped)
     if stuck.size:
         i = int(stuck[0])
-        text = (
-            f"the refinement left {counted(stuck.size, 'island', 'islands')} far from isometric (first: island "
-            f"{i}, symmetric Dirichlet {energy[i] / area[i]:.3g} per area, 4 is isometric): its start squeezed "
-            "faces the descent could not open; mark seams to cut it where it is squeezed"
+        template = (
+            f"the refinement left {counted(stuck.size, 'island', 'islands')} far from isometric (first: {{first}}, "
+            f"symmetric Dirichlet {energy[i] / area[i]:.3g} per area, 4 is isometric): its start squeezed faces "
+            "the descent could not open; mark seams to cut it where it is squeezed"
         )
-        out.append(SolverWarning("far_from_isometric", stuck.size, i, text))
+        out.append(_warning("far_from_isometric", stuck.size, "island", i, template))
     return out
 
 
 def _pin_warnings(islands: IslandReport) -> list[SolverWarning]:
     out = []
     if islands.one_point.any():
-        n, first = int(islands.one_point.sum()), int(np.argmax(islands.one_point))
-        text = (
-            f"{counted(n, 'island has', 'islands have')} all their pins on one UV (first: island {first}): "
+        n = int(islands.one_point.sum())
+        template = (
+            f"{counted(n, 'island has', 'islands have')} all their pins on one UV (first: {{first}}): "
             "moved there, not scaled or shaped by them"
         )
-        out.append(SolverWarning("pins_on_one_uv", n, first, text))
+        out.append(_warning("pins_on_one_uv", n, "island", np.argmax(islands.one_point), template))
     if islands.pin_conflicts.any():
-        n, first = int(islands.pin_conflicts.sum()), int(np.argmax(islands.pin_conflicts > 0))
-        text = (
+        n = int(islands.pin_conflicts.sum())
+        template = (
             f"{counted(n, 'pinned vertex has', 'pinned vertices have')} corners pinned to different UVs "
-            f"(first: island {first}): each is held at their mean"
+            "(first: {first}): each is held at their mean"
         )
-        out.append(SolverWarning("pin_conflict", n, first, text))
+        out.append(_warning("pin_conflict", n, "island", np.argmax(islands.pin_conflicts > 0), template))
     missed = np.flatnonzero(~islands.reached)
     if missed.size:
-        text = (
+        template = (
             f"the pins of {missed.size} island(s) could not all be reached without folding the layout "
-            f"(first: island {missed[0]})"
+            "(first: {first})"
         )
-        out.append(SolverWarning("pins_unreached", missed.size, int(missed[0]), text))
+        out.append(_warning("pins_unreached", missed.size, "island", missed[0], template))
     return out
 
 
 def _layout_warnings(flipped: np.ndarray, unused: int) -> list[SolverWarning]:
     out = []
     if flipped.any():
-        n, first = int(flipped.sum()), int(np.argmax(flipped))
-        text = f"{counted(n, 'triangle is', 'triangles are')} flipped in the layout (first: face {first})"
-        out.append(SolverWarning("flipped", n, first, text))
+        n = int(flipped.sum())
+        template = f"{counted(n, 'triangle is', 'triangles are')} flipped in the layout (first: {{first}})"
+        out.append(_warning("flipped", n, "face", np.argmax(flipped), template))
     if unused:
-        text = (
+        template = (
             f"{counted(unused, 'vertex belongs', 'vertices belong')} to no face and "
             f"{'was' if unused == 1 else 'were'} placed at (0, 0)"
         )
-        out.append(SolverWarning("unused_vertices", unused, None, text))
+        out.append(_warning("unused_vertices", unused, "", None, template))
     return out

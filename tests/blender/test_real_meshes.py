@@ -1,0 +1,45 @@
+"""Real models through the operator, as an artist brings them (../shared/meshes; spot is
+vendored in tests/data)."""
+
+import numpy as np
+import pytest
+
+from isoparam_addon.solver import metrics
+from isoparam_eval import meshes as ex
+
+from .conftest import bpy, corner_uvs, corner_verts, edit, object_mode, positions, triangles
+
+
+def imported(path):
+    """The OBJ file as Blender imports it, in edit mode with every face selected."""
+    if not path.exists():
+        pytest.skip(f"{path} is not on this machine (../shared/meshes)")
+    bpy.ops.wm.obj_import(filepath=str(path))
+    ob = bpy.context.selected_objects[0]
+    bpy.context.view_layer.objects.active = ob
+    edit(ob)
+    return ob
+
+
+def test_a_model_with_edges_of_three_faces_unwraps_as_blender_does(scene, capfd):
+    # beetle.obj: 47 edges shared by more than two faces; all of Blender's methods unwrap it
+    ob = imported(ex.SHARED / "beetle.obj")
+    capfd.readouterr()
+    assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
+    text = capfd.readouterr().out
+    object_mode()
+    assert "edges are shared by more than two faces (first: edge between vertices" in text
+    assert "Select > Select All by Trait > Non Manifold shows them" in text
+    tri = triangles(ob)
+    V, F, uv = positions(ob), corner_verts(ob)[tri], corner_uvs(ob)[tri].astype(np.float64)
+    pieces = metrics.per_island(V, F, uv)
+    assert pieces.flipped.sum() == 0 and pieces.mean_symmetric_dirichlet < 4.1
+
+
+def test_a_closed_model_unwraps_without_folds(scene):
+    ob = imported(ex.SPOT)
+    assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
+    object_mode()
+    tri = triangles(ob)
+    V, F, uv = positions(ob), corner_verts(ob)[tri], corner_uvs(ob)[tri].astype(np.float64)
+    assert np.isfinite(uv).all() and metrics.per_island(V, F, uv).flipped.sum() == 0
