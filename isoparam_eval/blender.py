@@ -69,6 +69,27 @@ def read_uvs(ob):
     return cv[tri], uv.reshape(-1, 2)[tri].astype(np.float64)
 
 
+def smart_uv_seams(V, F, angle_limit: float = 1.15) -> np.ndarray:
+    """The seams (k, 2 vertex pairs) of Smart UV Project's islands on a mesh (V, F): the
+    angle-based charts an artist gets from Blender in one click."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    ob = add_mesh("smart", V, np.asarray(F))
+    edit(ob)
+    bpy.ops.uv.smart_project(angle_limit=angle_limit, island_margin=0.0)
+    # before 5.0, seams_from_islands sees no UV selection headless unless sync select is on
+    settings = bpy.context.scene.tool_settings
+    sync, settings.use_uv_select_sync = settings.use_uv_select_sync, True
+    bpy.ops.uv.seams_from_islands()
+    settings.use_uv_select_sync = sync
+    bpy.ops.object.mode_set(mode="OBJECT")
+    me = ob.data
+    ev = np.empty(2 * len(me.edges), np.int32)
+    me.edges.foreach_get("vertices", ev)
+    seam = np.zeros(len(me.edges), bool)
+    me.edges.foreach_get("use_seam", seam)
+    return ev.reshape(-1, 2)[seam].astype(np.int64)
+
+
 def suzanne(levels: int = 2):
     """Suzanne subdivided, triangulated, with seams from Smart UV Project's islands:
     a scan-like curved mesh with several islands. Returns (V, F, seams)."""

@@ -418,3 +418,27 @@ def suzanne_closed() -> tuple[np.ndarray, np.ndarray]:
     and two closed eyes. Returns (V, F)."""
     with np.load(SUZANNE) as data:
         return data["V"].astype(np.float64), data["F"].astype(np.int64)
+
+
+def helical_ribbon(
+    turns: float = 1.6, nt: int = 160, nw: int = 6, r0: float = 1.0, r1: float = 1.25, rise: float = 0.15
+):
+    """A ribbon winding ``turns`` times up a helix, radii r0..r1: nearly developable, and
+    its near-isometric layout, an annulus sector of more than a turn, overlaps itself."""
+    t = np.linspace(0.0, 2.0 * np.pi * turns, nt)
+    w = np.linspace(r0, r1, nw)
+    T, W = np.meshgrid(t, w, indexing="ij")
+    V = np.stack([W * np.cos(T), W * np.sin(T), rise * T], axis=-1).reshape(-1, 3)
+    return V, grid_faces(nw, nt)
+
+
+def saddle_c(nt: int = 120, nw: int = 5, gap: float = 0.15, r0: float = 1.0, r1: float = 1.12, k: float = 0.5):
+    """A thin C-shaped band (an annulus with a gap of ``gap`` radians) on the saddle
+    z = k (x^2 - y^2): the saddle's negative curvature opens its development by more than
+    the gap, so its near-isometric layout closes on itself and overlaps."""
+    t = np.linspace(gap / 2, 2.0 * np.pi - gap / 2, nt)
+    w = np.linspace(r0, r1, nw)
+    T, W = np.meshgrid(t, w, indexing="ij")
+    x, y = W * np.cos(T), W * np.sin(T)
+    V = np.stack([x, y, k * (x * x - y * y)], axis=-1).reshape(-1, 3)
+    return V, grid_faces(nw, nt)

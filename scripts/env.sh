@@ -1,6 +1,7 @@
 # Source me: creates a Python 3.11 virtualenv with the pinned requirements, once, and
 # re-installs only when the requirements change.
-#   make_venv DIR [BPY_VERSION]   -> DIR/bin/python ready (bpy pinned to BPY_VERSION if given)
+#   make_venv DIR [BPY_VERSION [REQUIREMENTS]]  -> DIR/bin/python ready (bpy pinned to BPY_VERSION
+#   if not empty; REQUIREMENTS instead of requirements-dev.txt)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
@@ -16,9 +17,9 @@ find_python() {
 
 make_venv() {
     local dir="$1" bpy_version="${2:-}"
-    local req="$ROOT/requirements-dev.txt"
+    local req="${3:-$ROOT/requirements-dev.txt}"
     local want
-    want="$(cat "$req" "$ROOT/pyproject.toml"; echo "bpy-override=$bpy_version")"
+    want="$(cat "$req" "$ROOT/requirements-dev.txt" "$ROOT/pyproject.toml"; echo "bpy-override=$bpy_version")"
     want="$(echo "$want" | sha256sum | cut -d' ' -f1)"
     if [ ! -x "$dir/bin/python" ]; then
         "$(find_python)" -m venv "$dir"
@@ -27,10 +28,9 @@ make_venv() {
         if [ -n "$bpy_version" ]; then
             grep -v '^bpy==' "$req" > "$dir/requirements.txt"
             echo "bpy==$bpy_version" >> "$dir/requirements.txt"
-        else
-            cp "$req" "$dir/requirements.txt"
+            req="$dir/requirements.txt"
         fi
-        "$dir/bin/python" -m pip install --quiet --disable-pip-version-check -r "$dir/requirements.txt"
+        "$dir/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req"
         # the project itself, editable: scripts and tests import it wherever they run from
         "$dir/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e "$ROOT"
         echo "$want" > "$dir/.requirements.sha"

@@ -65,6 +65,12 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         min=0,
         max=20,
     )
+    split_overlaps: BoolProperty(
+        name="Cut Overlaps",
+        description="Cut an island whose layout overlaps itself (two places of the model on one texel) in two "
+        "where its overlapping parts are least apart, and unwrap the parts again",
+        default=True,
+    )
     show_stretch: BoolProperty(
         name="Show Stretch",
         description="Colour the faces by distortion (colour attribute 'isoparam_stretch': white = true "
@@ -78,17 +84,7 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         return ob is not None and ob.type == "MESH" and context.mode == "EDIT_MESH"
 
     def execute(self, context):
-        opts = unwrap.Options(
-            pack=self.pack,
-            pack_shape=self.pack_shape,
-            margin=self.margin,
-            correct_aspect=self.correct_aspect,
-            world_scale=self.world_scale,
-            refine=self.refine,
-            extra_cuts=self.extra_cuts,
-            show_stretch=self.show_stretch,
-        )
-        return unwrap.run(self, context, opts)
+        return unwrap.run(self, context, unwrap.Options(**self.as_keywords()))
 
 
 class UV_OT_isometric_show_stretch(bpy.types.Operator):

@@ -24,8 +24,11 @@ __all__ = ["STRETCH_ATTRIBUTE", "Options", "run", "show_stretch"]
 STRETCH_ATTRIBUTE = "isoparam_stretch"  # the face colour attribute Show Stretch writes
 
 
-@dataclass
+@dataclass(frozen=True)
 class Options:
+    """The operator's options, as its redo panel shows them (built from ``as_keywords()``:
+    one field per operator property)."""
+
     pack: bool = True
     pack_shape: str = "AABB"
     margin: float = 0.001
@@ -33,6 +36,7 @@ class Options:
     world_scale: bool = False
     refine: int = 1000
     extra_cuts: int = 4
+    split_overlaps: bool = True
     show_stretch: bool = False
 
 
@@ -365,6 +369,7 @@ def _solve(sel: mesh_io.Selection, opts: Options, strict: bool = False):
         pins=(hold, old) if hold.any() else None,
         inner_edges=sel.diagonals,
         extra_cuts=opts.extra_cuts,
+        split_overlaps=opts.split_overlaps,
     )
     return res, locked, old
 

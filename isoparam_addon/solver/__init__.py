@@ -29,6 +29,7 @@ from .options import Options, Problem
 from .pipeline import solve
 from .report import IslandReport, SolverWarning, Stats, Timings
 from .result import Parametrization
+from .untangle import without_overlaps
 
 __all__ = [
     "parametrize",
@@ -89,9 +90,10 @@ def parametrize(
     problem = Problem(vertices, faces, seams, inner_edges, pins)
     problem = replace(problem, inner_edges=_off_pins(problem))
     with retained(enabled=_is_large(vertices)):
-        if options.extra_cuts > 0:
-            return with_extra_cuts(problem, options)
-        return solve(problem, options)
+        result = with_extra_cuts(problem, options) if options.extra_cuts > 0 else solve(problem, options)
+        if options.split_overlaps and (result.islands.crossings > 0).any():
+            result = without_overlaps(result, problem, options)
+        return result
 
 
 def _off_pins(problem: Problem):

@@ -26,15 +26,13 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .geometry import corner_signed_areas, face_areas, signed_areas
-from .islands import Islands
-from .mesh import HalfEdges, edge_mask, unit_of
+from .geometry import corner_signed_areas, face_areas
+from .mesh import HalfEdges, edge_mask
 from .options import Options, Problem
-from .pipeline import TOPOLOGY_WARNINGS, solve, topology_warnings
-from .placement import pack_islands
-from .report import lowered, warnings
-from .result import Parametrization, per_corner_and_vertex
-from .topology import build_topology
+from .pipeline import TOPOLOGY_WARNINGS, solve
+from .report import lowered
+from .resolve import Part, combine, pairs, solve_islands
+from .result import Parametrization
 
 __all__ = ["area_distortion", "next_paths", "with_extra_cuts"]
 
@@ -152,7 +150,7 @@ def with_extra_cuts(problem: Problem, options: Options) -> Parametrization:
     The whole mesh is solved once, as with no extra cuts; the cuts are then grown on the
     islands that had to be cut open, each try solving those islands alone
     (:func:`_grow`); the result is the first solve with the kept tries' islands put in
-    (:func:`_merge`). Nothing is solved twice.
+    (:func:`.resolve.combine`). Nothing is solved twice.
     """
     first = solve(problem, options)
     if not first.cut_islands.size:  # nothing was cut open
@@ -162,17 +160,14 @@ def with_extra_cuts(problem: Problem, options: Options) -> Parametrization:
     added = len(cuts) - len(first.cut_edges)
     best = first
     if kept:
-        trial, faces, won = kept[-1]
-        seams = np.vstack([_pairs(problem.seams), cuts])
-        if len(faces) == len(first.face_island) and len(won) == first.n_islands:
-            best = trial  # every island tried and kept: the try is the whole mesh's solve
-        elif options.refine and first.islands.shaped.any():
+        seams = np.vstack([pairs(problem.seams), cuts])
+        if options.refine and first.islands.shaped.any():
             # islands with three or more pins are moved onto them in stages, and every
             # stage refines all of them (pins.refine_to_pins), so a try alone can take
             # another path than the whole mesh would: solve it
             best = solve(replace(problem, vertices=first.vertices, faces=first.faces, seams=seams), options)
         else:
-            best = _merge(first, kept, replace(problem, seams=seams), options)
+            best = combine(first, kept, replace(problem, seams=seams), options)
         best.cut_edges, best.cut_islands = cuts, first.cut_islands
         topology = [w for w in first.warnings if w.kind in TOPOLOGY_WARNINGS]
         rest = [w for w in best.warnings if w.kind not in TOPOLOGY_WARNINGS]
@@ -183,29 +178,23 @@ def with_extra_cuts(problem: Problem, options: Options) -> Parametrization:
     return best
 
 
-def _pairs(seams) -> np.ndarray:
-    """Seams as a (k, 2) int64 array (k = 0 for None)."""
-    return np.zeros((0, 2), dtype=np.int64) if seams is None else np.asarray(seams, dtype=np.int64).reshape(-1, 2)
-
-
 def _grow(first: Parametrization, problem: Problem, options: Options):
     """Grow the automatic cuts of ``first``: one path per island and round, kept where it
     lowers that island's area distortion by ``_GAIN``. A try solves only the islands still
     being grown.
 
-    Returns the cuts (automatic, then extra), the kept tries as ``(result, faces, won)``
-    (the try's result, the faces it covers as indices into the mesh's, and the islands,
-    in ``first``'s numbering, whose cut it kept), the number of tries, their gains, and
-    the area distortion of the islands cut open before and after.
+    Returns the cuts (automatic, then extra), the kept tries (:class:`.resolve.Part`,
+    keeping the islands whose cut each kept), the number of tries, their gains, and the
+    area distortion of the islands cut open before and after.
     """
     V, F = first.vertices, first.faces
-    base = _pairs(problem.seams)
+    base = pairs(problem.seams)
     isl = first.face_island
     cuts = first.cut_edges
     bad, before = area_distortion(V, F, first.corner_uv, isl, first.n_islands)
     score = before.copy()
     active = first.cut_islands.copy()
-    kept: list = []
+    kept: list[Part] = []
     tries, gains = 0, list[float | None]()
     while active.size and tries < options.extra_cuts:
         new, owner, got = next_paths(V, F, isl, active, bad, np.vstack([base, cuts]), problem.inner_edges)
@@ -213,19 +202,16 @@ def _grow(first: Parametrization, problem: Problem, options: Options):
         if not active.size:
             break
         tries += 1
-        trial, faces = _solve_part(
-            replace(problem, vertices=V, faces=F, seams=np.vstack([base, cuts, new])), isl, active, options
-        )
+        trying = replace(problem, vertices=V, faces=F, seams=np.vstack([base, cuts, new]))
+        part = solve_islands(trying, np.flatnonzero(np.isin(isl, active)), options)
+        trial, faces = part.result, part.faces
         if trial.n_islands != len(active) or trial.cut_islands.size:  # a slit keeps one disk
             gains.append(None)  # tried, not measured
             break
         t_bad, m = area_distortion(trial.vertices, trial.faces, trial.corner_uv, trial.face_island, trial.n_islands)
-        if faces is None:
-            faces = np.arange(len(F))
-        else:
-            label = np.empty(trial.n_islands, dtype=np.int64)  # the trial's islands in ``first``'s numbering
-            label[trial.face_island] = isl[faces]
-            m = np.bincount(label, m, minlength=first.n_islands)
+        label = np.empty(trial.n_islands, dtype=np.int64)  # the trial's islands in ``first``'s numbering
+        label[trial.face_island] = isl[faces]
+        m = np.bincount(label, m, minlength=first.n_islands)
         gain = 1.0 - m[active] / np.maximum(score[active], 1e-300)
         gains.append(float(gain.max()))
         better = gain >= _GAIN
@@ -236,104 +222,7 @@ def _grow(first: Parametrization, problem: Problem, options: Options):
         score[won] = m[won]
         mine = np.isin(isl[faces], won)
         bad[faces[mine]] = t_bad[mine]
-        kept.append((trial, faces, won))
+        kept.append(Part(trial, faces, mine))
         active = won
     opened = first.cut_islands
     return cuts, kept, tries, gains, before[opened], score[opened]
-
-
-def _solve_part(problem: Problem, face_island: np.ndarray, islands: np.ndarray, options: Options):
-    """Solve the faces of ``islands`` alone (islands are independent problems), unpacked.
-
-    Returns the result and the faces it covers (indices into the problem's faces, or None
-    for all of them: then it is the whole mesh's result with ``options`` as given)."""
-    F = np.asarray(problem.faces)
-    faces = np.flatnonzero(np.isin(face_island, islands))
-    if len(faces) == len(F):
-        return solve(problem, options), None
-    return solve(*_sub_problem(problem, faces, options)), faces
-
-
-def _sub_problem(problem: Problem, faces: np.ndarray, options: Options) -> tuple[Problem, Options]:
-    """The mesh of ``faces`` alone (pins, seams and polygon diagonals renumbered), unpacked."""
-    V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
-    used = np.unique(F[faces])
-    index = np.full(len(V), -1, dtype=np.int64)
-    index[used] = np.arange(len(used))
-
-    def inside(pairs):
-        if pairs is None:
-            return None
-        p = index[np.asarray(pairs, dtype=np.int64).reshape(-1, 2)]
-        return p[(p >= 0).all(axis=1)]
-
-    pins = None if problem.pins is None else (np.asarray(problem.pins[0])[faces], np.asarray(problem.pins[1])[faces])
-    part = Problem(V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins)
-    # split_nonmanifold: two wedges of an island around a vertex that other islands' faces
-    # separated (with seams) meet at a bare vertex once those faces are left out
-    return part, replace(options, pack=False, split_nonmanifold=True)
-
-
-def _merge(first: Parametrization, kept: list, problem: Problem, options: Options) -> Parametrization:
-    """``first`` with the islands of the kept tries (``(result, faces, won)``, see
-    :func:`_grow`) taken from the last try that kept each, packed together again.
-
-    Islands are independent problems, so this is the whole mesh's solve with the cuts
-    kept (``problem.seams``) to the solver's tolerance, without solving again the islands
-    no try changed (the refinement's L-BFGS history is a window shared by the islands,
-    which couples them weakly). The tries' islands come unpacked and in their canonical
-    frame, as ``first``'s are before packing, so only the packing is redone.
-    ``refine_energy`` is ``first``'s history, then the merged layout's energy;
-    ``iterations`` and ``refine_iterations`` the most any of the solves took.
-    """
-    t0 = time.perf_counter()
-    V, F = first.vertices, first.faces
-    _, _, topo = build_topology(V, F, problem.seams, options.split_nonmanifold, problem.inner_edges)
-    same = topo.n_islands == first.n_islands and np.array_equal(topo.face_island, first.face_island)
-    if not same or topo.cut_islands.size:  # not expected (a slit keeps one disk): solve it all
-        return solve(replace(problem, vertices=V, faces=F), options)
-    corner_uv = first.corner_uv.copy()
-    eigenvalues, converged = first.eigenvalues.copy(), first.converged.copy()
-    report = first.islands.copy()
-    stats = replace(first.stats, refine_energy=list(first.stats.refine_energy))
-    for trial, faces, won in kept:  # later tries override earlier ones
-        label = np.empty(trial.n_islands, dtype=np.int64)
-        label[trial.face_island] = first.face_island[faces]
-        mine = np.isin(first.face_island[faces], won)
-        corner_uv[faces[mine]] = trial.corner_uv[mine]
-        take = np.isin(label, won)
-        to = label[take]
-        eigenvalues[to], converged[to] = trial.eigenvalues[take], trial.converged[take]
-        report.take_from(trial.islands, to, take)
-        stats.iterations = max(stats.iterations, trial.stats.iterations)
-        stats.refine_iterations = max(stats.refine_iterations, trial.stats.refine_iterations)
-    uv_split = np.zeros((len(topo.vertex_of), 2))
-    uv_split[topo.corner_vertex.ravel()] = corner_uv.reshape(-1, 2)
-    if options.pack:
-        uv_split = pack_islands(uv_split, Islands(topo.vertex_island, topo.n_islands), options.margin, report.held)
-    flipped = signed_areas(uv_split / unit_of(V), topo.faces) <= 0  # as returned (see pipeline.solve)
-    corner_uv, uv, unused = per_corner_and_vertex(uv_split, topo, len(V))
-    stats.split_vertices = len(topo.vertex_of)
-    stats.count(report)
-    if options.refine:  # the merged layout's energy, as the refinement measures it
-        area = report.refine_area.sum()
-        stats.refine_energy.append(float(report.refine_energy.sum() / max(area, 1e-300)))
-    timings = replace(first.timings, merge=time.perf_counter() - t0)
-    return Parametrization(
-        uv=uv,
-        corner_uv=corner_uv,
-        face_island=first.face_island,
-        n_islands=first.n_islands,
-        cut_edges=topo.cut_edges,
-        cut_islands=topo.cut_islands,
-        flipped=flipped,
-        eigenvalues=eigenvalues,
-        converged=converged,
-        islands=report,
-        vertices=V,
-        faces=F,
-        turned=topo.flipped,
-        warnings=topology_warnings(topo) + warnings(report, converged, flipped, unused),
-        timings=timings,
-        stats=stats,
-    )

@@ -35,6 +35,10 @@ class Options:
         Islands that had to be cut automatically (closed, handles, holes) get up to this
         many more cuts while they help (see :mod:`.cuts`). 0: the shortest cut that
         opens the island, nothing more.
+    split_overlaps : bool
+        Cut an island whose layout overlaps itself where its overlapping parts are least
+        apart, and solve the parts again (see :mod:`.untangle`); without, such islands
+        are only warned about.
     """
 
     pack: bool = True
@@ -44,6 +48,7 @@ class Options:
     split_nonmanifold: bool = True
     refine: int = 0
     extra_cuts: int = 0
+    split_overlaps: bool = False
 
 
 @dataclass(frozen=True)

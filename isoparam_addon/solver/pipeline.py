@@ -23,6 +23,7 @@ from .islands import Islands
 from .local import local_flattening
 from .mesh import unit_of
 from .options import Options, Problem
+from .overlap import island_overlaps
 from .pins import Pins, layout_on_pins, pins_on_islands
 from .placement import place
 from .refinement import Proxy, Refinement, quadratic_proxy, refine
@@ -123,6 +124,8 @@ def _result(
     # moving an island rounds a face of 1e-26 the mesh's area to clockwise or nothing
     flipped = signed_areas(placed, topo.faces) <= 0
     corner_uv, uv, unused = per_corner_and_vertex(placed * unit, topo, len(V))
+    found = island_overlaps(placed, topo)
+    report.crossings, report.overlap_area = found.crossings, _squared(found.area, unit)
     stats = Stats(vertices=len(V), faces=len(F), split_vertices=len(topo.vertex_of), iterations=emb.iterations)
     stats.count(report)
     if info is not None:
@@ -143,6 +146,7 @@ def _result(
         vertices=V,
         faces=F,
         turned=topo.flipped,
+        overlapping_faces=np.stack(found.pairs, axis=1),
         warnings=topology_warnings(topo) + warnings(report, emb.converged, flipped, unused),
         timings=clock.timings,
         stats=stats,
@@ -203,9 +207,17 @@ def _island_report(
         conformal=never if info is None else info.restarted_conformal,
         tutte=never if info is None else info.restarted_tutte,
         # in mesh units: another solve of some of these islands has another unit
-        refine_energy=np.zeros(k) if info is None else info.island_energy * unit**2,
-        refine_area=np.zeros(k) if info is None else info.island_area * unit**2,
+        refine_energy=np.zeros(k) if info is None else _squared(info.island_energy, unit),
+        refine_area=np.zeros(k) if info is None else _squared(info.island_area, unit),
+        crossings=np.zeros(k, dtype=np.int64),  # (measured on the layout placed)
+        overlap_area=np.zeros(k),
     )
+
+
+def _squared(x: np.ndarray, unit: float) -> np.ndarray:
+    """Areas (and energies, which scale as areas) in mesh units: inf beyond float range."""
+    with np.errstate(over="ignore"):
+        return x * unit * unit
 
 
 def _embedding_timings(timings: Timings, emb: Embedding) -> None:

@@ -55,6 +55,7 @@ class SolverWarning:
                           first: an island holding one)
     ``far_from_isometric`` refined islands left far from isometric (islands)
     ``pins_unreached``    islands whose pins could not all be reached unfolded (islands)
+    ``overlapping``       islands whose layout overlaps itself (islands)
     ``flipped``           triangles folded in the layout (faces)
     ``unused_vertices``   vertices of no face, placed at (0, 0) (vertices; no first)
     ===================== ===========================================================
@@ -115,6 +116,10 @@ class IslandReport:
     refine_energy, refine_area : float
         Symmetric Dirichlet energy and 3D area of its refined faces, mesh units (0 where
         not refined).
+    crossings : int
+        Pairs of its boundary edges that cross in UV space: it overlaps itself.
+    overlap_area : float
+        UV area it covers twice (mesh units squared).
     """
 
     change: np.ndarray
@@ -130,6 +135,23 @@ class IslandReport:
     tutte: np.ndarray
     refine_energy: np.ndarray
     refine_area: np.ndarray
+    crossings: np.ndarray
+    overlap_area: np.ndarray
+
+    @classmethod
+    def empty(cls, n: int) -> IslandReport:
+        """Facts for ``n`` islands, all zero (False)."""
+        kinds = {
+            "change": float,
+            "refine_energy": float,
+            "refine_area": float,
+            "extra_vertex": np.int64,
+            "regularized": np.int64,
+            "pin_conflicts": np.int64,
+            "crossings": np.int64,
+            "overlap_area": float,
+        }
+        return cls(**{f.name: np.zeros(n, dtype=kinds.get(f.name, bool)) for f in fields(cls)})
 
     def copy(self) -> IslandReport:
         return IslandReport(**{f.name: getattr(self, f.name).copy() for f in fields(self)})
@@ -162,6 +184,8 @@ class Stats:
         Islands the refinement restarted from a conformal map / a Tutte embedding.
     extra_cut_tries, extra_cut_edges : int
         Solves tried with more cuts, and edges cut beyond the shortest opening cut.
+    overlap_cuts : int
+        Edges cut to part islands that overlapped themselves.
     extra_cut_gains : list of float or None
         Per try, the largest relative drop of area distortion among the islands tried
         (None: the try split an island and ended the search).
@@ -181,6 +205,7 @@ class Stats:
     extra_cut_tries: int = 0
     extra_cut_edges: int = 0
     extra_cut_gains: list[float | None] = field(default_factory=list)
+    overlap_cuts: int = 0
 
     def count(self, islands: IslandReport) -> None:
         """Set the counters that sum :class:`IslandReport` facts."""
@@ -203,6 +228,7 @@ class Timings:
     refine: float = 0.0
     placement: float = 0.0
     extra_cuts: float = 0.0
+    untangle: float = 0.0
     merge: float = 0.0
     total: float = 0.0
     embedding_ordering: float = 0.0
@@ -273,7 +299,7 @@ def lowered(added: int, before: np.ndarray, score: np.ndarray) -> list[SolverWar
 def warnings(islands: IslandReport, converged: np.ndarray, flipped: np.ndarray, unused: int) -> list[SolverWarning]:
     """The warnings that follow from a result's per-island facts, its Step 3 convergence
     (n_islands,) bool, its folded faces (m,) bool and its count of unused vertices."""
-    return [*_step_warnings(islands, converged), *_pin_warnings(islands), *_layout_warnings(flipped, unused)]
+    return [*_step_warnings(islands, converged), *_pin_warnings(islands), *_layout_warnings(islands, flipped, unused)]
 
 
 def _step_warnings(islands: IslandReport, converged: np.ndarray) -> list[SolverWarning]:
@@ -339,8 +365,15 @@ def _pin_warnings(islands: IslandReport) -> list[SolverWarning]:
     return out
 
 
-def _layout_warnings(flipped: np.ndarray, unused: int) -> list[SolverWarning]:
+def _layout_warnings(islands: IslandReport, flipped: np.ndarray, unused: int) -> list[SolverWarning]:
     out = []
+    over = np.flatnonzero(islands.crossings > 0)
+    if over.size:
+        template = (
+            f"{counted(over.size, 'island overlaps', 'islands overlap')} itself in UV space (first: {{first}}): "
+            "a texture painted there shows up twice; a seam across the overlap separates it"
+        )
+        out.append(_warning("overlapping", over.size, "island", over[0], template))
     if flipped.any():
         n = int(flipped.sum())
         template = f"{counted(n, 'triangle is', 'triangles are')} flipped in the layout (first: {{first}})"

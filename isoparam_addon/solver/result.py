@@ -49,6 +49,8 @@ class Parametrization:
         The validated input (for :meth:`distortion` and later solves).
     turned : (m,) bool
         Faces whose corner order the solver reversed to orient their island.
+    overlapping_faces : (p, 2) int64
+        Pairs of faces of one island that overlap in UV space (see :mod:`.overlap`).
     """
 
     uv: np.ndarray
@@ -64,6 +66,7 @@ class Parametrization:
     vertices: np.ndarray = field(repr=False)
     faces: np.ndarray = field(repr=False)
     turned: np.ndarray = field(repr=False)
+    overlapping_faces: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64), repr=False)
     warnings: list[SolverWarning] = field(default_factory=list)
     timings: Timings = field(default_factory=Timings)
     stats: Stats = field(default_factory=Stats)

@@ -43,3 +43,23 @@ def test_a_closed_model_unwraps_without_folds(scene):
     tri = triangles(ob)
     V, F, uv = positions(ob), corner_verts(ob)[tri], corner_uvs(ob)[tri].astype(np.float64)
     assert np.isfinite(uv).all() and metrics.per_island(V, F, uv).flipped.sum() == 0
+
+
+def test_an_island_that_would_overlap_itself_is_cut_apart_through_the_operator(scene, capfd):
+    from isoparam_eval.blender import add_mesh
+
+    V, F = ex.helical_ribbon()
+    ob = add_mesh("ribbon", V, F)
+    edit(ob)
+    assert bpy.ops.uv.isometric_unwrap(split_overlaps=False) == {"FINISHED"}
+    object_mode()
+    tri = triangles(ob)
+    Vb, Fb = positions(ob), corner_verts(ob)[tri]
+    assert metrics.self_overlaps(Vb, Fb, corner_uvs(ob)[tri].astype(np.float64)).islands == 1
+    edit(ob)
+    capfd.readouterr()
+    assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}  # Cut Overlaps is on by default
+    assert "overlaps itself" not in capfd.readouterr().out
+    object_mode()
+    uv = corner_uvs(ob)[tri].astype(np.float64)
+    assert metrics.self_overlaps(Vb, Fb, uv).islands == 0 and metrics.per_island(Vb, Fb, uv).flipped.sum() == 0

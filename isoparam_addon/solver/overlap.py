@@ -1,0 +1,204 @@
+"""Islands that overlap themselves in UV space: exact detection, the faces involved, and
+the area covered twice.
+
+A layout without folds maps each island, a topological disk, one-to-one exactly when its
+boundary is a simple closed curve (the number of times a point is covered is the winding
+number of the boundary around it). So an island overlaps itself iff two of its boundary
+edges cross, which :func:`crossings` tests exactly (orientation signs) after a uniform
+grid has paired the edges whose boxes meet. The faces that overlap, and the area they
+share, come from the same grid over triangles and a separating-axis test
+(:func:`overlapping_faces`), then clipping one triangle by the other (:func:`shared_area`).
+
+Everything runs on whole arrays: the grid pairs items cell by cell with ``np.repeat``;
+no loop runs over faces, edges or islands.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .geometry import corner_signed_areas
+
+__all__ = ["Overlaps", "crossings", "island_overlaps", "overlapping_faces", "overlaps", "shared_area"]
+
+
+def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: float):
+    """Pairs (i < j) of items whose boxes ``lo``/``hi`` (k, 2) meet a common grid cell of
+    size ``cell`` and that belong to the same ``group`` (k,): (p,) and (p,) int64, each
+    pair once."""
+    k = len(lo)
+    if k < 2:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty
+    base = lo.min(axis=0)
+    c0 = np.floor((lo - base) / cell).astype(np.int64)
+    c1 = np.floor((hi - base) / cell).astype(np.int64)
+    span = c1 - c0 + 1
+    count = span[:, 0] * span[:, 1]
+    item = np.repeat(np.arange(k), count)
+    # the cells of each item: offsets inside its box, row by row
+    offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    cx = c0[item, 0] + offset % span[item, 0]
+    cy = c0[item, 1] + offset // span[item, 0]
+    width = int(c1[:, 0].max()) + 1
+    key = (group[item] * (int(c1[:, 1].max()) + 1) + cy) * width + cx
+    order = np.argsort(key, kind="stable")
+    key, item = key[order], item[order]
+    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    size = np.diff(np.r_[start, len(key)])
+    # every item with each later item of its cell
+    pos = np.arange(len(key))
+    cell_end = np.repeat(start + size, size)
+    later = cell_end - pos - 1
+    a = np.repeat(pos, later)
+    b = a + 1 + (np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later))
+    i, j = item[a], item[b]
+    i, j = np.minimum(i, j), np.maximum(i, j)
+    keep = i != j
+    pair = np.unique(i[keep] * np.int64(k) + j[keep])
+    return pair // k, pair % k
+
+
+def _cell(lo: np.ndarray, hi: np.ndarray) -> float:
+    """A grid cell about twice the typical item: few cells per item, few items per cell."""
+    extent = np.median(np.max(hi - lo, axis=1)) if len(lo) else 1.0
+    return float(max(2.0 * extent, 1e-300))
+
+
+def _orient(p, q, r):
+    """Twice the signed area of (p, q, r), rows of (k, 2)."""
+    return (q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0])
+
+
+def crossings(uv: np.ndarray, edges: np.ndarray, group: np.ndarray):
+    """Pairs of segments ``edges`` (k, 2) over points ``uv`` (n, 2), of the same ``group``
+    (k,), that cross: each strictly separates the other's ends. Segments sharing an end
+    point are not tested (they meet there). Returns (p,) and (p,) indices into ``edges``."""
+    P, Q = uv[edges[:, 0]], uv[edges[:, 1]]
+    lo, hi = np.minimum(P, Q), np.maximum(P, Q)
+    i, j = _pairs_in_cells(lo, hi, group, _cell(lo, hi))
+    shared = (edges[i, 0] == edges[j, 0]) | (edges[i, 0] == edges[j, 1]) | (edges[i, 1] == edges[j, 0])
+    shared |= edges[i, 1] == edges[j, 1]
+    i, j = i[~shared], j[~shared]
+    a, b, c, d = P[i], Q[i], P[j], Q[j]
+    cross = (np.sign(_orient(a, b, c)) * np.sign(_orient(a, b, d)) < 0) & (
+        np.sign(_orient(c, d, a)) * np.sign(_orient(c, d, b)) < 0
+    )
+    return i[cross], j[cross]
+
+
+def overlapping_faces(cuv: np.ndarray, faces: np.ndarray, group: np.ndarray):
+    """Pairs of triangles (corner UVs ``cuv`` (m, 3, 2), vertex ids ``faces`` (m, 3)) of
+    the same ``group`` (m,) that overlap with positive area, by separating axes (the six
+    edge normals; a gap or a touch below 1e-12 of the triangles' size separates).
+    Triangles sharing a vertex are not tested. Returns (p,) and (p,) face indices."""
+    if not len(cuv):
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty
+    lo, hi = cuv.min(axis=1), cuv.max(axis=1)
+    i, j = _pairs_in_cells(lo, hi, group, _cell(lo, hi))
+    shared = (faces[i][:, :, None] == faces[j][:, None, :]).any(axis=(1, 2))
+    i, j = i[~shared], j[~shared]
+    # corner coordinates as columns (p,): reductions over axes of length 3 are slow in numpy
+    ax = [cuv[i, k, 0] for k in range(3)]
+    ay = [cuv[i, k, 1] for k in range(3)]
+    bx = [cuv[j, k, 0] for k in range(3)]
+    by = [cuv[j, k, 1] for k in range(3)]
+    size = np.maximum(
+        np.maximum(np.maximum(*ax[:2]), ax[2]) - np.minimum(np.minimum(*ax[:2]), ax[2]),
+        np.maximum(np.maximum(*ay[:2]), ay[2]) - np.minimum(np.minimum(*ay[:2]), ay[2]),
+    )
+    apart = np.zeros(len(i), dtype=bool)
+    for tx, ty in ((ax, ay), (bx, by)):  # the edge normals of each triangle
+        for k in range(3):
+            nx, ny = -(ty[(k + 1) % 3] - ty[k]), tx[(k + 1) % 3] - tx[k]
+            pa = [ax[c] * nx + ay[c] * ny for c in range(3)]
+            pb = [bx[c] * nx + by[c] * ny for c in range(3)]
+            tol = 1e-12 * size * np.hypot(nx, ny)
+            a_lo, a_hi = np.minimum(np.minimum(*pa[:2]), pa[2]), np.maximum(np.maximum(*pa[:2]), pa[2])
+            b_lo, b_hi = np.minimum(np.minimum(*pb[:2]), pb[2]), np.maximum(np.maximum(*pb[:2]), pb[2])
+            apart |= (a_hi <= b_lo + tol) | (b_hi <= a_lo + tol)
+    return i[~apart], j[~apart]
+
+
+def shared_area(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Area of the intersection of triangles ``A`` and ``B`` (p, 3, 2) each, (p,): A clipped
+    by the three half-planes of B (Sutherland-Hodgman), at most six corners throughout."""
+    p = len(A)
+    if not p:
+        return np.zeros(0)
+    ccw = np.where(corner_signed_areas(B) < 0, -1.0, 1.0)  # B's inside is to the left of its edges
+    poly = np.zeros((p, 9, 2))
+    poly[:, :3] = A
+    count = np.full(p, 3)
+    for k in range(3):
+        a, b = B[:, k], B[:, (k + 1) % 3]
+        side = ccw[:, None] * (
+            (b[:, None, 0] - a[:, None, 0]) * (poly[:, :, 1] - a[:, None, 1])
+            - (b[:, None, 1] - a[:, None, 1]) * (poly[:, :, 0] - a[:, None, 0])
+        )
+        valid = np.arange(9)[None, :] < count[:, None]
+        nxt = np.where(np.arange(9)[None, :] + 1 < count[:, None], np.arange(9)[None, :] + 1, 0)
+        s_here, s_next = side, np.take_along_axis(side, nxt, axis=1)
+        q_next = np.take_along_axis(poly, nxt[:, :, None], axis=1)
+        inside = valid & (s_here >= 0)
+        crossing = valid & ((s_here >= 0) != (s_next >= 0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(crossing, s_here / (s_here - s_next), 0.0)
+        hit = poly + t[:, :, None] * (q_next - poly)
+        # each corner emits itself (if inside) then the crossing point (if any): two slots
+        out = np.zeros((p, 18, 2))
+        keep = np.zeros((p, 18), dtype=bool)
+        out[:, 0::2], keep[:, 0::2] = poly, inside
+        out[:, 1::2], keep[:, 1::2] = hit, crossing
+        rank = np.cumsum(keep, axis=1) - 1
+        count = keep.sum(axis=1)
+        poly = np.zeros((p, 9, 2))
+        r, c = np.nonzero(keep & (rank < 9))
+        poly[r, rank[r, c]] = out[r, c]
+        count = np.minimum(count, 9)
+    x, y = poly[:, :, 0], poly[:, :, 1]
+    nxt = np.where(np.arange(9)[None, :] + 1 < count[:, None], np.arange(9)[None, :] + 1, 0)
+    xn, yn = np.take_along_axis(x, nxt, axis=1), np.take_along_axis(y, nxt, axis=1)
+    valid = np.arange(9)[None, :] < count[:, None]
+    return 0.5 * np.abs(np.where(valid, x * yn - xn * y, 0.0).sum(axis=1))
+
+
+class Overlaps(NamedTuple):
+    """How a layout's islands overlap themselves."""
+
+    islands: np.ndarray  # (k,) islands whose boundary crosses itself
+    crossings: np.ndarray  # (n_islands,) crossing pairs of boundary edges per island
+    pairs: tuple[np.ndarray, np.ndarray]  # faces of one island that overlap (or, if none share
+    # area, the faces of its first crossing boundary edges), (p,) each
+    area: np.ndarray  # (n_islands,) UV area covered twice per island
+
+
+def overlaps(uv: np.ndarray, faces: np.ndarray, face_island: np.ndarray, n_islands: int, twin) -> Overlaps:
+    """The self-overlaps of a layout ``uv`` (n, 2) of ``faces`` (m, 3) over split vertices
+    (seams and cuts apart), ``face_island`` (m,); ``twin`` (3m,) the twin half-edges (-1
+    on the boundary)."""
+    h = np.flatnonzero(twin < 0)  # the boundary, edge by edge
+    f, k = h // 3, h % 3
+    edges = np.stack([faces[f, k], faces[f, (k + 1) % 3]], axis=1)
+    a, b = crossings(uv, edges, face_island[f])
+    per = np.bincount(face_island[f[a]], minlength=n_islands)
+    bad = np.flatnonzero(per > 0)
+    on = np.flatnonzero(np.isin(face_island, bad))
+    cuv = np.take(uv, faces[on], axis=0)
+    i, j = overlapping_faces(cuv, faces[on], face_island[on])
+    area = np.bincount(face_island[on[i]], shared_area(cuv[i], cuv[j]), minlength=n_islands)
+    i, j = on[i], on[j]
+    # an island whose boundary crosses where no two faces share area (they only touch
+    # there): the faces of its first crossing stand for the overlap
+    bare = np.setdiff1d(bad, face_island[i])
+    first = np.unique(face_island[f[a]], return_index=True)[1]
+    pick = first[np.isin(face_island[f[a[first]]], bare)]
+    return Overlaps(bad, per, (np.r_[i, f[a[pick]]], np.r_[j, f[b[pick]]]), area)
+
+
+def island_overlaps(uv_split: np.ndarray, topo) -> Overlaps:
+    """:func:`overlaps` of a layout over a :class:`.topology.Topology`'s split vertices."""
+    return overlaps(uv_split, topo.faces, topo.face_island, topo.n_islands, topo.he.twin)

@@ -1,0 +1,147 @@
+"""Solving some islands again and putting them back: the machinery the searches beyond one
+solve share (extra cuts, splitting islands that overlap themselves).
+
+Islands are independent problems: the faces of some islands, solved alone with more
+seams, give the same layouts as the whole mesh solved with those seams (to the solver's
+tolerance), so a search solves only the islands it changes, and :func:`combine` packs
+them back beside the others. Every solve returns its islands unpacked in their canonical
+frame, as :func:`.pipeline.solve` has them before packing, so only the packing is redone.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import NamedTuple
+
+import numpy as np
+
+from .geometry import signed_areas
+from .islands import Islands
+from .mesh import unit_of
+from .options import Options, Problem
+from .overlap import island_overlaps
+from .pipeline import solve, topology_warnings
+from .placement import pack_islands
+from .report import IslandReport, warnings
+from .result import Parametrization, per_corner_and_vertex
+from .topology import build_topology
+
+__all__ = ["Part", "combine", "pairs", "solve_islands"]
+
+
+class Part:
+    """A solve of some faces of the mesh: ``result`` covers ``faces`` (k,) (indices into the
+    mesh's faces, in the result's face order); ``keep`` (k,) bool are the faces whose
+    layout is taken (the islands whose seams stay)."""
+
+    def __init__(self, result: Parametrization, faces: np.ndarray, keep: np.ndarray | None = None):
+        self.result, self.faces = result, faces
+        self.keep = np.ones(len(faces), dtype=bool) if keep is None else keep
+
+
+def pairs(seams) -> np.ndarray:
+    """Vertex pairs as a (k, 2) int64 array (k = 0 for None)."""
+    return np.zeros((0, 2), dtype=np.int64) if seams is None else np.asarray(seams, dtype=np.int64).reshape(-1, 2)
+
+
+def solve_islands(problem: Problem, faces: np.ndarray, options: Options) -> Part:
+    """Solve ``faces`` (indices into the problem's faces: whole islands) alone, unpacked."""
+    if len(faces) == len(np.asarray(problem.faces)):
+        return Part(solve(problem, replace(options, pack=False)), faces)
+    V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
+    used = np.unique(F[faces])
+    index = np.full(len(V), -1, dtype=np.int64)
+    index[used] = np.arange(len(used))
+
+    def inside(vertex_pairs):
+        if vertex_pairs is None:
+            return None
+        p = index[pairs(vertex_pairs)]
+        return p[(p >= 0).all(axis=1)]
+
+    pins = None if problem.pins is None else (np.asarray(problem.pins[0])[faces], np.asarray(problem.pins[1])[faces])
+    part = Problem(V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins)
+    # split_nonmanifold: two wedges of an island around a vertex that other islands' faces
+    # separated (with seams) meet at a bare vertex once those faces are left out
+    return Part(solve(part, replace(options, pack=False, split_nonmanifold=True)), faces)
+
+
+class _Source(NamedTuple):
+    islands: np.ndarray  # the new islands this source lays out
+    own: np.ndarray  # ... and their numbers in the source
+
+
+def combine(first: Parametrization, parts: list[Part], problem: Problem, options: Options) -> Parametrization:
+    """``first`` with the faces of ``parts`` laid out as those parts solved them (later
+    parts over earlier ones), every island packed again: the whole mesh's result with
+    ``problem.seams`` (which must hold every seam and cut of the parts, so that its islands
+    are theirs) without solving again what no part changed.
+
+    Per-island facts and Step 3 values come from the solve that laid each island out;
+    ``iterations`` and ``refine_iterations`` are the most any solve took, and
+    ``refine_energy`` is ``first``'s history followed by the combined layout's energy.
+    """
+    t0 = time.perf_counter()
+    V, F = first.vertices, first.faces
+    _, _, topo = build_topology(V, F, problem.seams, options.split_nonmanifold, problem.inner_edges)
+    if topo.cut_islands.size:  # not expected (the parts' cuts are among the seams): solve it all
+        return solve(replace(problem, vertices=V, faces=F), options)
+    corner_uv = first.corner_uv.copy()
+    owner = np.full(len(F), -1, dtype=np.int64)  # which part lays each face out (-1: first)
+    local = np.arange(len(F))  # ... and the face's number there
+    for k, part in enumerate(parts):
+        taken = part.faces[part.keep]
+        corner_uv[taken] = part.result.corner_uv[part.keep]
+        owner[taken], local[taken] = k, np.flatnonzero(part.keep)
+    n = topo.n_islands
+    rep = np.full(n, len(F), dtype=np.int64)  # a face of every new island
+    np.minimum.at(rep, topo.face_island, np.arange(len(F)))
+    sources = [(first, _Source(np.flatnonzero(owner[rep] < 0), first.face_island[rep[owner[rep] < 0]]))]
+    for k, part in enumerate(parts):
+        mine = np.flatnonzero(owner[rep] == k)
+        sources.append((part.result, _Source(mine, part.result.face_island[local[rep[mine]]])))
+    report = IslandReport.empty(n)
+    eigenvalues, converged = np.zeros((n, 2)), np.zeros(n, dtype=bool)
+    stats = replace(first.stats, refine_energy=list(first.stats.refine_energy))
+    for result, source in sources:
+        report.take_from(result.islands, source.islands, source.own)
+        eigenvalues[source.islands], converged[source.islands] = (
+            result.eigenvalues[source.own],
+            result.converged[source.own],
+        )
+        stats.iterations = max(stats.iterations, result.stats.iterations)
+        stats.refine_iterations = max(stats.refine_iterations, result.stats.refine_iterations)
+    uv_split = np.zeros((len(topo.vertex_of), 2))
+    uv_split[topo.corner_vertex.ravel()] = corner_uv.reshape(-1, 2)
+    if options.pack:
+        uv_split = pack_islands(uv_split, Islands(topo.vertex_island, n), options.margin, report.held)
+    flipped = signed_areas(uv_split / unit_of(V), topo.faces) <= 0  # as returned (see pipeline.solve)
+    corner_uv, uv, unused = per_corner_and_vertex(uv_split, topo, len(V))
+    found = island_overlaps(uv_split, topo)
+    report.crossings, report.overlap_area = found.crossings, found.area
+    stats.split_vertices = len(topo.vertex_of)
+    stats.count(report)
+    if options.refine:  # the combined layout's energy, as the refinement measures it
+        area = report.refine_area.sum()
+        stats.refine_energy.append(float(report.refine_energy.sum() / max(area, 1e-300)))
+    timings = replace(first.timings, merge=first.timings.merge + time.perf_counter() - t0)
+    return Parametrization(
+        uv=uv,
+        corner_uv=corner_uv,
+        face_island=topo.face_island,
+        n_islands=n,
+        cut_edges=topo.cut_edges,
+        cut_islands=topo.cut_islands,
+        flipped=flipped,
+        eigenvalues=eigenvalues,
+        converged=converged,
+        islands=report,
+        vertices=V,
+        faces=F,
+        turned=topo.flipped,
+        overlapping_faces=np.stack(found.pairs, axis=1),
+        warnings=topology_warnings(topo) + warnings(report, converged, flipped, unused),
+        timings=timings,
+        stats=stats,
+    )

@@ -1,0 +1,80 @@
+"""Islands that overlap themselves: exact detection (solver/overlap.py) and their removal by
+a shortest separating cut (solver/untangle.py)."""
+
+import numpy as np
+import pytest
+
+from isoparam_addon.solver import metrics, parametrize
+from isoparam_addon.solver.overlap import crossings, overlapping_faces, shared_area
+from isoparam_eval import meshes as ex
+
+
+def test_shared_area_of_two_triangles_is_exact(rng):
+    T = np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])
+    assert shared_area(T, T) == pytest.approx([0.5])
+    assert shared_area(T, T + [0.5, 0.0]) == pytest.approx([0.125])
+    assert shared_area(T, T[:, ::-1]) == pytest.approx([0.5])  # either orientation
+    assert shared_area(T, T + [2.0, 0.0]) == pytest.approx([0.0])
+    # against the area of the intersection polygon found by brute force on a fine grid
+    A, B = rng.random((20, 3, 2)), rng.random((20, 3, 2))
+    g = (np.arange(600) + 0.5) / 600
+    P = np.stack(np.meshgrid(g, g), axis=-1).reshape(-1, 2)
+
+    def inside(T):
+        s = [
+            (T[(k + 1) % 3, 0] - T[k, 0]) * (P[:, 1] - T[k, 1]) - (T[(k + 1) % 3, 1] - T[k, 1]) * (P[:, 0] - T[k, 0])
+            for k in range(3)
+        ]
+        return np.all(np.array(s) >= 0, axis=0) | np.all(np.array(s) <= 0, axis=0)
+
+    grid = np.array([(inside(a) & inside(b)).mean() for a, b in zip(A, B)])
+    np.testing.assert_allclose(shared_area(A, B), grid, atol=3e-3)
+
+
+def test_segments_cross_only_where_each_separates_the_other():
+    uv = np.array([[0, 0], [2, 2], [0, 2], [2, 0], [3, 0], [4, 0], [1, 1], [5, 5]], dtype=float)
+    edges = np.array([[0, 1], [2, 3], [4, 5], [1, 7], [6, 7]])
+    i, j = crossings(uv, edges, np.zeros(len(edges), dtype=np.int64))
+    # 0-1 crosses 2-3; 6-7 starts on 0-1 (touches, no crossing); 1-7 shares an end with 0-1
+    assert sorted(zip(i.tolist(), j.tolist())) == [(0, 1)]
+    # in different groups (islands) nothing is tested
+    assert len(crossings(uv, edges, np.arange(len(edges)))[0]) == 0
+
+
+def test_faces_overlap_only_with_positive_area():
+    cuv = np.array([[[0, 0], [1, 0], [0, 1]], [[0.2, 0.2], [1, 0.2], [0.2, 1]], [[1, 0], [1, 1], [0, 1]]], float)
+    faces = np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8]])
+    i, j = overlapping_faces(cuv, faces, np.zeros(3, dtype=np.int64))
+    # 0 and 1 overlap; 2 only touches 0 along the hypotenuse
+    assert sorted(zip(i.tolist(), j.tolist())) == [(0, 1), (1, 2)]
+
+
+@pytest.mark.parametrize("make", [ex.helical_ribbon, ex.saddle_c], ids=["helical ribbon", "C on a saddle"])
+def test_an_island_that_overlaps_itself_is_found_and_cut_apart(make):
+    V, F = make()
+    plain = parametrize(V, F, refine=1000)
+    assert plain.islands.crossings[0] > 0 and plain.islands.overlap_area[0] > 0
+    assert [w.kind for w in plain.warnings] == ["overlapping"]
+    # the metric on any layout agrees with the solver's report
+    measured = metrics.self_overlaps(V, F, plain.corner_uv)
+    assert measured.islands == 1 and measured.area.sum() == pytest.approx(plain.islands.overlap_area.sum())
+    cut = parametrize(V, F, refine=1000, split_overlaps=True)
+    assert cut.n_islands > 1 and cut.stats.overlap_cuts > 0
+    assert not (cut.islands.crossings > 0).any() and not cut.flipped.any()
+    assert metrics.self_overlaps(V, F, cut.corner_uv).islands == 0
+    assert not any(w.kind == "overlapping" for w in cut.warnings)
+    before = metrics.per_island(V, F, plain.corner_uv, plain.face_island).mean_symmetric_dirichlet
+    after = metrics.per_island(V, F, cut.corner_uv, cut.face_island).mean_symmetric_dirichlet
+    assert after <= before * 1.01
+    # the cuts never run along a polygon's diagonal: cutting a quadrangulated ribbon
+    quads_inner = F[: len(F) // 2][:, [0, 2]]  # grid_faces: the cell's triangles a-b-d and a-d-c share a-d
+    again = parametrize(V, F, refine=1000, split_overlaps=True, inner_edges=quads_inner)
+    cut_pairs = {tuple(e) for e in np.sort(again.cut_edges, axis=1).tolist()}
+    assert not cut_pairs & {tuple(e) for e in np.sort(quads_inner, axis=1).tolist()}
+    assert not (again.islands.crossings > 0).any()
+
+
+def test_islands_that_do_not_overlap_are_left_alone():
+    V, F = ex.peaks(21)
+    a, b = parametrize(V, F, refine=100), parametrize(V, F, refine=100, split_overlaps=True)
+    assert np.array_equal(a.corner_uv, b.corner_uv) and b.stats.overlap_cuts == 0
