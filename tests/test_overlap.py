@@ -53,11 +53,12 @@ def test_faces_overlap_only_with_positive_area():
 def test_an_island_that_overlaps_itself_is_found_and_cut_apart(make):
     V, F = make()
     plain = parametrize(V, F, refine=1000)
-    assert plain.islands.crossings[0] > 0 and plain.islands.overlap_area[0] > 0
+    assert plain.islands.crossings[0] > 0 and plain.overlaps().area[0] > 0
     assert [w.kind for w in plain.warnings] == ["overlapping"]
     # the metric on any layout agrees with the solver's report
     measured = metrics.self_overlaps(V, F, plain.corner_uv)
-    assert measured.islands == 1 and measured.area.sum() == pytest.approx(plain.islands.overlap_area.sum())
+    assert measured.islands == 1 and measured.area.sum() == pytest.approx(plain.overlaps().area.sum())
+    assert measured.crossings.sum() == plain.islands.crossings.sum()
     cut = parametrize(V, F, refine=1000, split_overlaps=True)
     assert cut.n_islands > 1 and cut.stats.overlap_cuts > 0
     assert not (cut.islands.crossings > 0).any() and not cut.flipped.any()

@@ -196,13 +196,17 @@ def _grow(first: Parametrization, problem: Problem, options: Options):
     active = first.cut_islands.copy()
     kept: list[Part] = []
     tries, gains = 0, list[float | None]()
+    layout = first.corner_uv.copy()  # the best layout so far: each try goes on from it
     while active.size and tries < options.extra_cuts:
         new, owner, got = next_paths(V, F, isl, active, bad, np.vstack([base, cuts]), problem.inner_edges)
         active = active[got]
         if not active.size:
             break
         tries += 1
-        trying = replace(problem, vertices=V, faces=F, seams=np.vstack([base, cuts, new]))
+        # a slit leaves the layout as it was (both sides on one line) and fold-free: the try
+        # refines it on, rather than starting again from the four steps
+        start = layout if options.refine else None
+        trying = replace(problem, vertices=V, faces=F, seams=np.vstack([base, cuts, new]), start=start)
         part = solve_islands(trying, np.flatnonzero(np.isin(isl, active)), options)
         trial, faces = part.result, part.faces
         if trial.n_islands != len(active) or trial.cut_islands.size:  # a slit keeps one disk
@@ -222,6 +226,7 @@ def _grow(first: Parametrization, problem: Problem, options: Options):
         score[won] = m[won]
         mine = np.isin(isl[faces], won)
         bad[faces[mine]] = t_bad[mine]
+        layout[faces[mine]] = trial.corner_uv[mine]
         kept.append(Part(trial, faces, mine))
         active = won
     opened = first.cut_islands

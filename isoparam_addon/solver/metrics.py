@@ -70,7 +70,6 @@ __all__ = [
     "face_stretch",
     "combine_stretch",
     "stretch_colours",
-    "SelfOverlap",
     "self_overlaps",
 ]
 
@@ -414,58 +413,14 @@ def stretch_colours(distortion: np.ndarray) -> np.ndarray:
     return rgba
 
 
-class SelfOverlap(NamedTuple):
-    """How the islands of a layout overlap themselves (per island (n_islands,)): pairs of
-    boundary edges that cross, and the UV area covered twice."""
-
-    crossings: np.ndarray
-    area: np.ndarray
-
-    @property
-    def islands(self) -> int:
-        return int((self.crossings > 0).sum())
-
-    def share(self, uv_area: float) -> float:
-        """The area covered twice as a share of ``uv_area``."""
-        return float(self.area.sum() / uv_area) if uv_area > 0 else 0.0
-
-
-def self_overlaps(V, F, uv, face_island=None) -> SelfOverlap:
-    """:class:`SelfOverlap` of any layout (per vertex or per corner, e.g. read back from
-    Blender): an island's boundary is where its corner UVs disagree across an edge, or
-    the mesh's boundary; islands are ``face_island`` (m,), or the faces connected in UV
-    space (:func:`uv_islands`)."""
-    from .overlap import crossings, overlapping_faces, shared_area
+def self_overlaps(V, F, uv, face_island=None):
+    """How the islands of any layout (per vertex or per corner, e.g. read back from
+    Blender) overlap themselves: an :class:`.overlap.Overlaps` (boundary crossings and UV
+    area covered twice per island); islands are ``face_island`` (m,), or the faces
+    connected in UV space (:func:`uv_islands`)."""
+    from .overlap import self_overlaps as found
 
     F = np.asarray(F, dtype=np.int64)
     cuv = corner_uvs(F, uv)
     label = uv_islands(F, cuv) if face_island is None else np.asarray(face_island, dtype=np.int64)
-    k = int(label.max()) + 1 if len(label) else 0
-    # one id per (mesh vertex, UV) point: corners that share it meet there
-    quv = cuv.reshape(-1, 2)
-    _, point = np.unique(
-        np.column_stack([F.ravel(), quv.view(np.int64) if quv.dtype == np.float64 else quv]),
-        axis=0,
-        return_inverse=True,
-    )
-    point = point.ravel()
-    he = HalfEdges(F, int(F.max()) + 1 if len(F) else 0)
-    h = np.arange(F.size)
-    t = he.twin
-    flat = F.ravel()
-    paired = t >= 0
-    same_dir = paired & (flat[np.maximum(t, 0)] == flat[h])
-    tn = np.where(paired, next_corner(np.maximum(t, 0)), 0)
-    ta, tb = np.where(same_dir, t, tn), np.where(same_dir, tn, t)
-    agree = paired & np.all(quv[ta] == quv[h], axis=1) & np.all(quv[tb] == quv[next_corner(h)], axis=1)
-    agree &= label[h // 3] == label[np.maximum(t, 0) // 3]
-    b = np.flatnonzero(~agree)  # boundary half-edges of the islands
-    ends = np.stack([b, next_corner(b)], axis=1)
-    points = np.zeros((int(point.max()) + 1 if len(point) else 0, 2))
-    points[point] = quv
-    i, _ = crossings(points, point[ends], label[b // 3])
-    per = np.bincount(label[b[i] // 3], minlength=k)
-    on = np.flatnonzero(per[label] > 0)
-    fi, fj = overlapping_faces(cuv[on], point.reshape(-1, 3)[on], label[on])
-    area = np.bincount(label[on[fi]], shared_area(cuv[on[fi]], cuv[on[fj]]), minlength=k)
-    return SelfOverlap(per, area)
+    return found(F, cuv, label, int(label.max()) + 1 if len(label) else 0)

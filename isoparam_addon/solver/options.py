@@ -66,6 +66,9 @@ class Problem:
         at pinned vertices).
     pins : (corners (m, 3) bool, uv (m, 3, 2) float) or None
         Face corners whose UV is given.
+    start : (m, 3, 2) float or None
+        A fold-free layout to refine instead of the four steps' (a search that cut a solved
+        layout further goes on from it), mesh units, per face corner.
     """
 
     vertices: npt.ArrayLike
@@ -73,6 +76,7 @@ class Problem:
     seams: npt.ArrayLike | None = None
     inner_edges: npt.ArrayLike | None = None
     pins: tuple[npt.ArrayLike, npt.ArrayLike] | None = None
+    start: np.ndarray | None = None
 
     def pinned_vertices(self) -> np.ndarray | None:
         """The mesh vertices with a pinned corner, or None (no pins, or input that

@@ -21,7 +21,7 @@ import numpy as np
 
 from .geometry import corner_signed_areas
 
-__all__ = ["Overlaps", "crossings", "island_overlaps", "overlapping_faces", "overlaps", "shared_area"]
+__all__ = ["Overlaps", "boundary_crossings", "crossings", "overlapping_faces", "self_overlaps", "shared_area"]
 
 
 def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: float):
@@ -166,39 +166,72 @@ def shared_area(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return 0.5 * np.abs(np.where(valid, x * yn - xn * y, 0.0).sum(axis=1))
 
 
-class Overlaps(NamedTuple):
-    """How a layout's islands overlap themselves."""
-
-    islands: np.ndarray  # (k,) islands whose boundary crosses itself
-    crossings: np.ndarray  # (n_islands,) crossing pairs of boundary edges per island
-    pairs: tuple[np.ndarray, np.ndarray]  # faces of one island that overlap (or, if none share
-    # area, the faces of its first crossing boundary edges), (p,) each
-    area: np.ndarray  # (n_islands,) UV area covered twice per island
-
-
-def overlaps(uv: np.ndarray, faces: np.ndarray, face_island: np.ndarray, n_islands: int, twin) -> Overlaps:
-    """The self-overlaps of a layout ``uv`` (n, 2) of ``faces`` (m, 3) over split vertices
-    (seams and cuts apart), ``face_island`` (m,); ``twin`` (3m,) the twin half-edges (-1
-    on the boundary)."""
-    h = np.flatnonzero(twin < 0)  # the boundary, edge by edge
+def boundary_crossings(uv: np.ndarray, topo) -> np.ndarray:
+    """Per island of a :class:`.topology.Topology`, the pairs of its boundary edges that
+    cross in the layout ``uv`` (n, 2) over its split vertices (n_islands,): positive
+    where the island overlaps itself. The cheap test every solve runs."""
+    h = np.flatnonzero(topo.he.twin < 0)  # the boundary, edge by edge
     f, k = h // 3, h % 3
-    edges = np.stack([faces[f, k], faces[f, (k + 1) % 3]], axis=1)
-    a, b = crossings(uv, edges, face_island[f])
-    per = np.bincount(face_island[f[a]], minlength=n_islands)
-    bad = np.flatnonzero(per > 0)
-    on = np.flatnonzero(np.isin(face_island, bad))
-    cuv = np.take(uv, faces[on], axis=0)
-    i, j = overlapping_faces(cuv, faces[on], face_island[on])
-    area = np.bincount(face_island[on[i]], shared_area(cuv[i], cuv[j]), minlength=n_islands)
-    i, j = on[i], on[j]
+    edges = np.stack([topo.faces[f, k], topo.faces[f, (k + 1) % 3]], axis=1)
+    a, _ = crossings(uv, edges, topo.face_island[f])
+    return np.bincount(topo.face_island[f[a]], minlength=topo.n_islands)
+
+
+class Overlaps(NamedTuple):
+    """How the islands of a layout overlap themselves."""
+
+    crossings: np.ndarray  # (n_islands,) pairs of boundary edges that cross
+    area: np.ndarray  # (n_islands,) UV area covered twice
+    pairs: tuple[np.ndarray, np.ndarray]  # faces of one island that overlap (or, if none
+    # share area, the faces of its first crossing boundary edges), (p,) each
+
+    @property
+    def islands(self) -> int:
+        return int((self.crossings > 0).sum())
+
+    def share(self, uv_area: float) -> float:
+        """The area covered twice as a share of ``uv_area``."""
+        return float(self.area.sum() / uv_area) if uv_area > 0 else 0.0
+
+
+def self_overlaps(F: np.ndarray, cuv: np.ndarray, face_island: np.ndarray, n_islands: int) -> Overlaps:
+    """:class:`Overlaps` of any layout given per face corner, ``cuv`` (m, 3, 2) of mesh
+    faces ``F`` (m, 3), islands ``face_island`` (m,): an island's boundary is where its
+    corner UVs disagree across an edge, or the mesh's boundary."""
+    from .mesh import HalfEdges
+
+    m = len(F)
+    if not m:
+        empty = np.zeros(0, dtype=np.int64)
+        return Overlaps(np.zeros(n_islands, dtype=np.int64), np.zeros(n_islands), (empty, empty))
+    # one id per (mesh vertex, UV) point: corners that share it meet there
+    quv = np.ascontiguousarray(cuv.reshape(-1, 2), dtype=np.float64)
+    _, point = np.unique(np.column_stack([F.ravel(), quv.view(np.int64)]), axis=0, return_inverse=True)
+    point = point.ravel()
+    he = HalfEdges(F, int(F.max()) + 1)
+    h, t = np.arange(F.size), he.twin
+    paired = t >= 0
+    tt = np.maximum(t, 0)
+    # across an edge the two faces agree if their corners meet at both of its ends
+    nxt = 3 * (h // 3) + (h % 3 + 1) % 3
+    tnxt = 3 * (tt // 3) + (tt % 3 + 1) % 3
+    same_dir = paired & (F.ravel()[tt] == F.ravel()[h])
+    ta, tb = np.where(same_dir, tt, tnxt), np.where(same_dir, tnxt, tt)
+    agree = paired & (point[ta] == point[h]) & (point[tb] == point[nxt])
+    agree &= face_island[h // 3] == face_island[tt // 3]
+    b = np.flatnonzero(~agree)  # boundary half-edges of the islands
+    ends = np.stack([point[b], point[3 * (b // 3) + (b % 3 + 1) % 3]], axis=1)
+    points = np.zeros((int(point.max()) + 1, 2))
+    points[point] = quv
+    a, c = crossings(points, ends, face_island[b // 3])
+    per = np.bincount(face_island[b[a] // 3], minlength=n_islands)
+    on = np.flatnonzero(per[face_island] > 0)
+    fi, fj = overlapping_faces(cuv[on], point.reshape(-1, 3)[on], face_island[on])
+    fi, fj = on[fi], on[fj]
+    area = np.bincount(face_island[fi], shared_area(cuv[fi], cuv[fj]), minlength=n_islands)
     # an island whose boundary crosses where no two faces share area (they only touch
     # there): the faces of its first crossing stand for the overlap
-    bare = np.setdiff1d(bad, face_island[i])
-    first = np.unique(face_island[f[a]], return_index=True)[1]
-    pick = first[np.isin(face_island[f[a[first]]], bare)]
-    return Overlaps(bad, per, (np.r_[i, f[a[pick]]], np.r_[j, f[b[pick]]]), area)
-
-
-def island_overlaps(uv_split: np.ndarray, topo) -> Overlaps:
-    """:func:`overlaps` of a layout over a :class:`.topology.Topology`'s split vertices."""
-    return overlaps(uv_split, topo.faces, topo.face_island, topo.n_islands, topo.he.twin)
+    bare = np.setdiff1d(np.flatnonzero(per > 0), face_island[fi])
+    first = np.unique(face_island[b[a] // 3], return_index=True)[1]
+    pick = first[np.isin(face_island[b[a[first]] // 3], bare)]
+    return Overlaps(per, area, (np.r_[fi, b[a[pick]] // 3], np.r_[fj, b[c[pick]] // 3]))

@@ -23,7 +23,7 @@ from .islands import Islands
 from .local import local_flattening
 from .mesh import unit_of
 from .options import Options, Problem
-from .overlap import island_overlaps
+from .overlap import boundary_crossings
 from .pins import Pins, layout_on_pins, pins_on_islands
 from .placement import place
 from .refinement import Proxy, Refinement, quadratic_proxy, refine
@@ -71,20 +71,13 @@ def solve(problem: Problem, options: Options) -> Parametrization:
         plan = worker.submit(plan_elimination, X, topo.he.edge_vertices, islands)
         if options.refine:
             proxy = worker.submit(_proxy, X, topo.faces, islands, None if pins is None else pins.shaping, plan)
-        patches = local_flattening(X, topo.faces, topo.fans)  # Step 1
-        clock.lap("local")
-        L, flagged = reconstruction_weights(X, topo.faces, topo.he.twin, patches, len(X))  # Step 2
-        clock.lap("weights")
+        if problem.start is None:
+            Y, emb, clipped, flagged = _four_steps(X, topo, islands, options, plan, clock)
+        else:  # a layout to go on from (a search that cut it further): no four steps
+            Y, emb, clipped, flagged = _started(problem.start / unit, topo, islands)
         plan = plan.result()
-        emb = spectral_embedding(L, X, islands, tol=options.tol, max_iter=options.max_iter, plan=plan)  # Step 3
-        clock.lap("embedding")
         proxy = proxy.result() if options.refine else None
         clock.lap("refine")  # waiting for the proxy, if it outlasted Step 3
-    edges = topo.he.edge_vertices  # Step 4
-    Y, _, clipped = fit_rotation_scale(emb.coords, edges, edge_lengths(X, edges), islands.label[edges[:, 0]], islands)
-    Y = orient(Y, topo.faces, topo.face_island, islands)
-    clock.lap("align")
-
     order = np.concatenate([plan.free_order, plan.anchors.ravel()])
 
     def refined(seed: np.ndarray, fixed: np.ndarray | None) -> Refinement:
@@ -115,6 +108,33 @@ def solve(problem: Problem, options: Options) -> Parametrization:
     return _result(V, F, topo, placed, unit, emb, report, info, clock)
 
 
+def _four_steps(X, topo: Topology, islands: Islands, options: Options, plan, clock: _Clock):
+    """Sun & Hancock's four steps: the layout (n, 2), Step 3's embedding, the islands
+    whose Step 4 scale was clipped and the vertices Step 2 flagged."""
+    patches = local_flattening(X, topo.faces, topo.fans)  # Step 1
+    clock.lap("local")
+    L, flagged = reconstruction_weights(X, topo.faces, topo.he.twin, patches, len(X))  # Step 2
+    clock.lap("weights")
+    emb = spectral_embedding(L, X, islands, tol=options.tol, max_iter=options.max_iter, plan=plan.result())  # Step 3
+    clock.lap("embedding")
+    edges = topo.he.edge_vertices  # Step 4
+    Y, _, clipped = fit_rotation_scale(emb.coords, edges, edge_lengths(X, edges), islands.label[edges[:, 0]], islands)
+    Y = orient(Y, topo.faces, topo.face_island, islands)
+    clock.lap("align")
+    return Y, emb, clipped, flagged
+
+
+def _started(corner_uv: np.ndarray, topo: Topology, islands: Islands):
+    """The layout (n, 2) over the split vertices from corner UVs (m, 3, 2) given to go on
+    from, and stand-ins for what the four steps would have said (nothing)."""
+    Y = np.zeros((len(topo.vertex_of), 2))
+    Y[topo.corner_vertex.ravel()] = np.asarray(corner_uv, dtype=np.float64).reshape(-1, 2)
+    k = islands.n
+    emb = Embedding(Y, np.zeros((k, 2)), np.ones(k, dtype=bool), np.zeros(k), 0)
+    none = np.zeros(0, dtype=np.int64)
+    return Y, emb, np.zeros(k, dtype=bool), Flagged(none, none)
+
+
 def _result(
     V, F, topo: Topology, placed, unit: float, emb: Embedding, report: IslandReport, info: Refinement | None, clock
 ) -> Parametrization:
@@ -124,8 +144,7 @@ def _result(
     # moving an island rounds a face of 1e-26 the mesh's area to clockwise or nothing
     flipped = signed_areas(placed, topo.faces) <= 0
     corner_uv, uv, unused = per_corner_and_vertex(placed * unit, topo, len(V))
-    found = island_overlaps(placed, topo)
-    report.crossings, report.overlap_area = found.crossings, _squared(found.area, unit)
+    report.crossings = boundary_crossings(placed, topo)
     stats = Stats(vertices=len(V), faces=len(F), split_vertices=len(topo.vertex_of), iterations=emb.iterations)
     stats.count(report)
     if info is not None:
@@ -146,7 +165,6 @@ def _result(
         vertices=V,
         faces=F,
         turned=topo.flipped,
-        overlapping_faces=np.stack(found.pairs, axis=1),
         warnings=topology_warnings(topo) + warnings(report, emb.converged, flipped, unused),
         timings=clock.timings,
         stats=stats,
@@ -210,7 +228,6 @@ def _island_report(
         refine_energy=np.zeros(k) if info is None else _squared(info.island_energy, unit),
         refine_area=np.zeros(k) if info is None else _squared(info.island_area, unit),
         crossings=np.zeros(k, dtype=np.int64),  # (measured on the layout placed)
-        overlap_area=np.zeros(k),
     )
 
 

@@ -118,8 +118,6 @@ class IslandReport:
         not refined).
     crossings : int
         Pairs of its boundary edges that cross in UV space: it overlaps itself.
-    overlap_area : float
-        UV area it covers twice (mesh units squared).
     """
 
     change: np.ndarray
@@ -136,7 +134,6 @@ class IslandReport:
     refine_energy: np.ndarray
     refine_area: np.ndarray
     crossings: np.ndarray
-    overlap_area: np.ndarray
 
     @classmethod
     def empty(cls, n: int) -> IslandReport:
@@ -149,7 +146,6 @@ class IslandReport:
             "regularized": np.int64,
             "pin_conflicts": np.int64,
             "crossings": np.int64,
-            "overlap_area": float,
         }
         return cls(**{f.name: np.zeros(n, dtype=kinds.get(f.name, bool)) for f in fields(cls)})
 

@@ -20,7 +20,7 @@ from .geometry import signed_areas
 from .islands import Islands
 from .mesh import unit_of
 from .options import Options, Problem
-from .overlap import island_overlaps
+from .overlap import boundary_crossings
 from .pipeline import solve, topology_warnings
 from .placement import pack_islands
 from .report import IslandReport, warnings
@@ -46,7 +46,8 @@ def pairs(seams) -> np.ndarray:
 
 
 def solve_islands(problem: Problem, faces: np.ndarray, options: Options) -> Part:
-    """Solve ``faces`` (indices into the problem's faces: whole islands) alone, unpacked."""
+    """Solve ``faces`` (indices into the problem's faces: whole islands) alone, unpacked,
+    from ``problem.start`` if it holds a layout to go on from."""
     if len(faces) == len(np.asarray(problem.faces)):
         return Part(solve(problem, replace(options, pack=False)), faces)
     V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
@@ -61,7 +62,8 @@ def solve_islands(problem: Problem, faces: np.ndarray, options: Options) -> Part
         return p[(p >= 0).all(axis=1)]
 
     pins = None if problem.pins is None else (np.asarray(problem.pins[0])[faces], np.asarray(problem.pins[1])[faces])
-    part = Problem(V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins)
+    start = None if problem.start is None else problem.start[faces]
+    part = Problem(V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins, start)
     # split_nonmanifold: two wedges of an island around a vertex that other islands' faces
     # separated (with seams) meet at a bare vertex once those faces are left out
     return Part(solve(part, replace(options, pack=False, split_nonmanifold=True)), faces)
@@ -104,12 +106,17 @@ def combine(first: Parametrization, parts: list[Part], problem: Problem, options
     report = IslandReport.empty(n)
     eigenvalues, converged = np.zeros((n, 2)), np.zeros(n, dtype=bool)
     stats = replace(first.stats, refine_energy=list(first.stats.refine_energy))
+    parent = first.face_island[rep]  # the island of ``first`` each new one comes from
     for result, source in sources:
         report.take_from(result.islands, source.islands, source.own)
-        eigenvalues[source.islands], converged[source.islands] = (
-            result.eigenvalues[source.own],
-            result.converged[source.own],
-        )
+        stats.refine_iterations = max(stats.refine_iterations, result.stats.refine_iterations)
+        if result is not first and result.stats.iterations == 0:  # went on from a layout: no four steps ran
+            _four_step_facts(report, first, parent, source.islands)
+            eigenvalues[source.islands] = first.eigenvalues[parent[source.islands]]
+            converged[source.islands] = first.converged[parent[source.islands]]
+            continue
+        eigenvalues[source.islands] = result.eigenvalues[source.own]
+        converged[source.islands] = result.converged[source.own]
         stats.iterations = max(stats.iterations, result.stats.iterations)
         stats.refine_iterations = max(stats.refine_iterations, result.stats.refine_iterations)
     uv_split = np.zeros((len(topo.vertex_of), 2))
@@ -118,8 +125,7 @@ def combine(first: Parametrization, parts: list[Part], problem: Problem, options
         uv_split = pack_islands(uv_split, Islands(topo.vertex_island, n), options.margin, report.held)
     flipped = signed_areas(uv_split / unit_of(V), topo.faces) <= 0  # as returned (see pipeline.solve)
     corner_uv, uv, unused = per_corner_and_vertex(uv_split, topo, len(V))
-    found = island_overlaps(uv_split, topo)
-    report.crossings, report.overlap_area = found.crossings, found.area
+    report.crossings = boundary_crossings(uv_split, topo)
     stats.split_vertices = len(topo.vertex_of)
     stats.count(report)
     if options.refine:  # the combined layout's energy, as the refinement measures it
@@ -140,8 +146,20 @@ def combine(first: Parametrization, parts: list[Part], problem: Problem, options
         vertices=V,
         faces=F,
         turned=topo.flipped,
-        overlapping_faces=np.stack(found.pairs, axis=1),
         warnings=topology_warnings(topo) + warnings(report, converged, flipped, unused),
         timings=timings,
         stats=stats,
     )
+
+
+def _four_step_facts(report: IslandReport, first: Parametrization, parent: np.ndarray, islands: np.ndarray) -> None:
+    """The four steps' facts of ``islands`` laid out by a solve that went on from ``first``'s
+    layout: those of the island of ``first`` each comes from (its counts go to the first
+    of its pieces, once)."""
+    came = parent[islands]
+    report.change[islands] = first.islands.change[came]
+    report.clipped[islands] = first.islands.clipped[came]
+    once = np.zeros(len(islands), dtype=bool)
+    once[np.unique(came, return_index=True)[1]] = True
+    report.extra_vertex[islands] = np.where(once, first.islands.extra_vertex[came], 0)
+    report.regularized[islands] = np.where(once, first.islands.regularized[came], 0)

@@ -49,8 +49,6 @@ class Parametrization:
         The validated input (for :meth:`distortion` and later solves).
     turned : (m,) bool
         Faces whose corner order the solver reversed to orient their island.
-    overlapping_faces : (p, 2) int64
-        Pairs of faces of one island that overlap in UV space (see :mod:`.overlap`).
     """
 
     uv: np.ndarray
@@ -66,7 +64,6 @@ class Parametrization:
     vertices: np.ndarray = field(repr=False)
     faces: np.ndarray = field(repr=False)
     turned: np.ndarray = field(repr=False)
-    overlapping_faces: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64), repr=False)
     warnings: list[SolverWarning] = field(default_factory=list)
     timings: Timings = field(default_factory=Timings)
     stats: Stats = field(default_factory=Stats)
@@ -81,6 +78,13 @@ class Parametrization:
         F = np.where(turned, self.faces[:, ::-1], self.faces)
         cuv = np.where(turned[:, :, None], self.corner_uv[:, ::-1], self.corner_uv)
         return metrics.distortion(self.vertices, F, cuv, self.face_island)
+
+    def overlaps(self):
+        """How its islands overlap themselves (:class:`.overlap.Overlaps`: boundary
+        crossings, UV area covered twice, the faces involved)."""
+        from .overlap import self_overlaps
+
+        return self_overlaps(self.faces, self.corner_uv, self.face_island, self.n_islands)
 
 
 def per_corner_and_vertex(uv_split: np.ndarray, topo: Topology, n: int):

@@ -51,11 +51,17 @@ def without_overlaps(first: Parametrization, problem: Problem, options: Options)
         if not len(new):
             break
         cuts = np.vstack([cuts, new])
-        trying = replace(problem, vertices=result.vertices, faces=result.faces, seams=np.vstack([seams, new]))
+        # the parts go on from the island's layout (fold-free, overlapping only across the cut)
+        start = result.corner_uv if options.refine else None
+        trying = replace(
+            problem, vertices=result.vertices, faces=result.faces, seams=np.vstack([seams, new]), start=start
+        )
         part = solve_islands(trying, np.flatnonzero(np.isin(result.face_island, bad)), options)
         # the parts' own automatic cuts (a part that is an annulus is cut open) are seams too
         cuts = np.vstack([cuts, part.result.cut_edges]) if len(part.result.cut_edges) else cuts
-        result = combine(result, [part], replace(trying, seams=np.vstack([pairs(problem.seams), cuts])), options)
+        result = combine(
+            result, [part], replace(trying, seams=np.vstack([pairs(problem.seams), cuts]), start=None), options
+        )
         result.cut_edges, result.cut_islands = cuts, first.cut_islands
         result.stats.overlap_cuts += len(new)
     result.timings.untangle = first.timings.untangle + time.perf_counter() - t0
@@ -66,7 +72,7 @@ def without_overlaps(first: Parametrization, problem: Problem, options: Options)
 def _separating_cuts(result: Parametrization, topo: Topology, inner_edges) -> np.ndarray:
     """For every island of ``result`` that overlaps itself, the mesh edges (k, 2 vertex
     pairs) of the shortest cut between the two layers of its largest overlap."""
-    i, j = result.overlapping_faces[:, 0], result.overlapping_faces[:, 1]
+    i, j = result.overlaps().pairs
     if not len(i):
         return np.zeros((0, 2), dtype=np.int64)
     m = len(result.faces)
