@@ -89,9 +89,10 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
 def test_the_same_uvs_under_other_blas_kernels_and_thread_counts(tmp_path):
     # the paper's method (no refinement): the same UVs to 1e-9 of the layout's size. With
     # the refinement, which stops once the energy has converged (not the UVs), the same
-    # energy to 0.1% (it stops within 2e-4 of it, try after try): where a descent starts far from isometric (closed parts opened by a
-    # short cut, and cut further from there) it carries rounding of Step 3 (1e-8) along
-    # soft directions of the energy, and stops up to 1% of the layout's size apart
+    # energy to 0.1% (it stops within 2e-4 of it, try after try): where a descent starts
+    # far from isometric (closed parts opened by a short cut, and cut further from there)
+    # it carries rounding of Step 3 (1e-8) along soft directions of the energy, and stops
+    # up to 1% of the layout's size apart
     runs = [_solve_in(env, tmp_path / f"run{k}.npz") for k, env in enumerate(_machines())]
     for name in runs[0]:
         for env, other in zip(_machines()[1:], runs[1:]):

@@ -227,7 +227,7 @@ def _grow(first: Parametrization, problem: Problem, options: Options):
         mine = np.isin(isl[faces], won)
         bad[faces[mine]] = t_bad[mine]
         layout[faces[mine]] = trial.corner_uv[mine]
-        kept.append(Part(trial, faces, mine))
+        kept.append(Part(trial, faces, part.vertices, mine))
         active = won
     opened = first.cut_islands
     return cuts, kept, tries, gains, before[opened], score[opened]

@@ -32,12 +32,18 @@ __all__ = ["Part", "combine", "pairs", "solve_islands"]
 
 class Part:
     """A solve of some faces of the mesh: ``result`` covers ``faces`` (k,) (indices into the
-    mesh's faces, in the result's face order); ``keep`` (k,) bool are the faces whose
-    layout is taken (the islands whose seams stay)."""
+    mesh's faces, in the result's face order) over ``vertices`` (its vertex i is the
+    mesh's ``vertices[i]``); ``keep`` (k,) bool are the faces whose layout is taken (the
+    islands whose seams stay)."""
 
-    def __init__(self, result: Parametrization, faces: np.ndarray, keep: np.ndarray | None = None):
-        self.result, self.faces = result, faces
+    def __init__(self, result: Parametrization, faces: np.ndarray, vertices: np.ndarray, keep=None):
+        self.result, self.faces, self.vertices = result, faces, vertices
         self.keep = np.ones(len(faces), dtype=bool) if keep is None else keep
+
+    @property
+    def cut_edges(self) -> np.ndarray:
+        """The part's automatic cuts, as vertex pairs of the mesh (k, 2)."""
+        return self.vertices[self.result.cut_edges]
 
 
 def pairs(seams) -> np.ndarray:
@@ -49,7 +55,7 @@ def solve_islands(problem: Problem, faces: np.ndarray, options: Options) -> Part
     """Solve ``faces`` (indices into the problem's faces: whole islands) alone, unpacked,
     from ``problem.start`` if it holds a layout to go on from."""
     if len(faces) == len(np.asarray(problem.faces)):
-        return Part(solve(problem, replace(options, pack=False)), faces)
+        return Part(solve(problem, replace(options, pack=False)), faces, np.arange(len(np.asarray(problem.vertices))))
     V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
     used = np.unique(F[faces])
     index = np.full(len(V), -1, dtype=np.int64)
@@ -66,7 +72,7 @@ def solve_islands(problem: Problem, faces: np.ndarray, options: Options) -> Part
     part = Problem(V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins, start)
     # split_nonmanifold: two wedges of an island around a vertex that other islands' faces
     # separated (with seams) meet at a bare vertex once those faces are left out
-    return Part(solve(part, replace(options, pack=False, split_nonmanifold=True)), faces)
+    return Part(solve(part, replace(options, pack=False, split_nonmanifold=True)), faces, used)
 
 
 class _Source(NamedTuple):

@@ -58,7 +58,7 @@ def without_overlaps(first: Parametrization, problem: Problem, options: Options)
         )
         part = solve_islands(trying, np.flatnonzero(np.isin(result.face_island, bad)), options)
         # the parts' own automatic cuts (a part that is an annulus is cut open) are seams too
-        cuts = np.vstack([cuts, part.result.cut_edges]) if len(part.result.cut_edges) else cuts
+        cuts = np.vstack([cuts, part.cut_edges])
         result = combine(
             result, [part], replace(trying, seams=np.vstack([pairs(problem.seams), cuts]), start=None), options
         )
