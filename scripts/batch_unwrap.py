@@ -115,6 +115,9 @@ def unwrap_scene(args) -> dict:
                 margin=args.margin,
                 world_scale=args.world_scale,
                 correct_aspect=not args.no_aspect,
+                charts=not args.no_charts,
+                max_stretch=args.max_stretch,
+                mark_seams=args.mark_seams,
                 **({} if args.extra_cuts is None else {"extra_cuts": args.extra_cuts}),
             )
         finally:
@@ -142,8 +145,13 @@ def parse(argv):
     ap.add_argument("--margin", type=float, default=0.001)
     ap.add_argument("--world-scale", action="store_true", help="one UV unit per world unit")
     ap.add_argument("--no-aspect", action="store_true", help="ignore image aspect ratios")
+    ap.add_argument("--no-charts", action="store_true", help="cut islands open only as far as they must be")
+    ap.add_argument("--max-stretch", type=float, default=1.18, help="the charts' stretch budget (default 1.18)")
+    ap.add_argument("--mark-seams", action="store_true", help="mark the cuts made as seams")
     ap.add_argument(
-        "--extra-cuts", type=int, help="more cuts for islands cut open automatically (default: the operator's, 4)"
+        "--extra-cuts",
+        type=int,
+        help="with --no-charts: more cuts for islands cut open automatically (default: the operator's, 4)",
     )
     ap.add_argument("--report", type=Path, help="write the per-file report as JSON")
     return ap.parse_args(argv)

@@ -2,8 +2,8 @@
 
 For every mesh of ``../shared/meshes`` (and Suzanne) and every seam mode, each method
 unwraps the whole mesh in edit mode through its operator, end to end (mesh I/O, solve,
-packing); xatlas (``pip install xatlas``, benchmark environment only) makes its own
-charts from the mesh alone. Seam modes:
+packing); xatlas (``pip install xatlas``, benchmark environment only) and Blender's Smart
+UV Project make their own charts from the mesh alone (no-seam mode only). Seam modes:
 
 * ``smart``: the seams of Smart UV Project's islands (Blender's one-click charts);
 * ``none``: no seams (closed parts are cut open by each method as it can);
@@ -31,7 +31,7 @@ from isoparam_addon.solver import metrics
 from isoparam_eval import meshes as ex
 from isoparam_eval.blender import METHODS, add_mesh, bpy, edit, read_uvs, smart_uv_seams
 
-ALL = ["isoparam", "ANGLE_BASED", "CONFORMAL", "xatlas"]
+ALL = ["isoparam", "ANGLE_BASED", "CONFORMAL", "SMART_UV", "xatlas"]
 
 
 def mesh(name: str, seams: str):
@@ -117,9 +117,10 @@ def main(argv=None) -> int:
                 continue
             V, F, S = found
             for method in args.methods:
-                if method == "xatlas":
+                if method in ("xatlas", "SMART_UV"):
                     if seams != "none":
-                        continue  # xatlas makes its own charts
+                        continue  # they make their own charts
+                if method == "xatlas":
                     t, Ft, cuv = run_xatlas(V, F, args.repeat)
                 else:
                     t, Ft, cuv = run_operator(method, V, F, S, args.repeat)

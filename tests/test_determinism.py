@@ -53,9 +53,11 @@ V, F = ex.s_surface_random(300, 5)[:2]
 shifts = np.array([[0.0, 0.0, 0.0], [3.1, 0.7, 0.0], [-2.9, 5.3, 1.0], [7.7, -3.3, 2.0]])
 cases["copies"] = (np.vstack([V + s for s in shifts]), np.vstack([F + k * len(V) for k in range(4)]), None, None)
 out = {}
+cases["spot_charts"] = (spot[0], spot[1], None, None)  # cut into charts: cells, then splits by stretch
 for name, (V, F, seams, inner) in cases.items():
     for refine in (0, 100):
-        r = parametrize(V, F, seams, inner_edges=inner, refine=refine, extra_cuts=4)
+        charts = dict(charts=True, split_overlaps=True) if name.endswith("charts") else dict(extra_cuts=4)
+        r = parametrize(V, F, seams, inner_edges=inner, refine=refine, **charts)
         out[f"{name}_{refine}"] = r.corner_uv
         energy = metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet
         out[f"{name}_{refine}_energy"] = np.array([energy])

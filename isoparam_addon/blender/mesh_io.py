@@ -194,6 +194,31 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
     )
 
 
+def mark_seams(mesh, edges: np.ndarray) -> int:
+    """Mark the edges of ``mesh`` between the vertex pairs ``edges`` (k, 2 mesh vertex ids)
+    as seams (object mode); pairs that are no edge are skipped. Returns how many edges
+    were not seams before."""
+    ne = len(mesh.edges)
+    if not len(edges) or not ne:
+        return 0
+    edge_verts = np.empty(2 * ne, dtype=np.int32)
+    mesh.edges.foreach_get("vertices", edge_verts)
+    ends = np.sort(edge_verts.reshape(ne, 2).astype(np.int64), axis=1)
+    n = int(max(ends.max(), np.max(edges))) + 1
+    key = ends[:, 0] * n + ends[:, 1]
+    order = np.argsort(key)
+    pairs = np.sort(np.asarray(edges, dtype=np.int64), axis=1)
+    want = pairs[:, 0] * n + pairs[:, 1]
+    at = np.minimum(np.searchsorted(key[order], want), ne - 1)
+    hit = order[at[key[order][at] == want]]
+    seam = np.zeros(ne, dtype=bool)
+    mesh.edges.foreach_get("use_seam", seam)
+    new = int((~seam[hit]).sum())
+    seam[hit] = True
+    mesh.edges.foreach_set("use_seam", seam)
+    return new
+
+
 def triangles(me) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Blender's triangulation of the mesh (object mode): the corners of every triangle
     (t, 3) int64, the face of every triangle (t,) int64, and the corner count of every

@@ -56,11 +56,35 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         min=0,
         max=5000,
     )
+    charts: BoolProperty(
+        name="Charts",
+        description="Cut islands that are closed, or curved too much to flatten, into a few charts: seams "
+        "along short paths and creases where the layout would stretch more than Max Stretch. Islands "
+        "with pins stay whole. Off: islands are only cut open as far as they must be",
+        default=True,
+    )
+    max_stretch: FloatProperty(
+        name="Max Stretch",
+        description="Charts are cut until each island's distortion is no more than that of stretching it "
+        "uniformly by this factor (symmetric Dirichlet energy per area at most 2(s\u00b2 + 1/s\u00b2)): "
+        "lower gives more charts and less stretch",
+        default=1.18,
+        min=1.01,
+        max=10.0,
+        precision=2,
+        step=1,
+    )
+    mark_seams: BoolProperty(
+        name="Mark Seams",
+        description="Mark the cuts the unwrap made (charts, openings, overlap cuts) as seams, to edit them "
+        "and unwrap again",
+        default=False,
+    )
     extra_cuts: IntProperty(
         name="Extra Cuts",
-        description="Islands that have to be cut open (closed, with holes or handles, no seams marked) get up "
-        "to this many more cuts, each from the cut to the most squeezed or stretched spot, while they "
-        "help; every attempt solves again. 0 cuts only as much as opening the island needs",
+        description="With Charts off: islands that have to be cut open (closed, with holes or handles, no "
+        "seams marked) get up to this many more cuts, each from the cut to the most squeezed or stretched "
+        "spot, while they help; every attempt solves again. 0 cuts only as much as opening needs",
         default=4,
         min=0,
         max=20,

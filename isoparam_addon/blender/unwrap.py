@@ -35,6 +35,9 @@ class Options:
     correct_aspect: bool = True
     world_scale: bool = False
     refine: int = 1000
+    charts: bool = True
+    max_stretch: float = 1.18
+    mark_seams: bool = False
     extra_cuts: int = 4
     split_overlaps: bool = True
     show_stretch: bool = False
@@ -219,6 +222,8 @@ class _Solved:
     distortion: np.ndarray  # (t,) per unwrapped triangle
     stretch: metrics.StretchSummary
     warnings: list
+    notes: list  # what the unwrap did that the artist may want to know (charts)
+    cuts: np.ndarray  # (k, 2) mesh vertex pairs of the edges it cut
 
 
 def run(op, context, opts: Options) -> set:
@@ -238,6 +243,8 @@ def run(op, context, opts: Options) -> set:
                 return {"CANCELLED"}
             for s in solved:  # one write per mesh
                 _write(s)
+                if opts.mark_seams:
+                    mesh_io.mark_seams(s.obj.data, s.cuts)
                 if opts.show_stretch:
                     _write_stretch(s.obj.data, s.sel, s.distortion)
             held = any(s.held.any() for s in solved)
@@ -345,6 +352,7 @@ def _pack(context, solved, opts: Options, pin: bool, kept: list[_Kept]) -> None:
                     mesh_io.set_uv_selection(k.mesh, k.uv_selection)
 
 
+_NOTES = ("charts",)  # solver warnings that are news, not trouble: reported as INFO
 _OVERLAP = ("duplicate_face", "non_manifold_edge")  # what overlapping triangles raise
 _NOT_MANIFOLD = (*_OVERLAP, "non_manifold_vertex")  # what the solver splits when not strict
 _OVERLAP_WARNINGS = ("duplicate_faces", "non_manifold_edges")  # how the solver says it split them
@@ -368,6 +376,8 @@ def _solve(sel: mesh_io.Selection, opts: Options, strict: bool = False):
         refine=opts.refine,
         pins=(hold, old) if hold.any() else None,
         inner_edges=sel.diagonals,
+        charts=opts.charts,
+        max_stretch=opts.max_stretch,
         extra_cuts=opts.extra_cuts,
         split_overlaps=opts.split_overlaps,
     )
@@ -451,7 +461,9 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
         if overlap:  # the same cut in the triangulation's terms, which Select Non Manifold cannot show
             gone = {w.worded(_mesh_names(sel)) for w in res.warnings if w.kind in _OVERLAP_WARNINGS}
             warnings = [overlap] + [w for w in warnings if w not in gone]
-        solved.append(_Solved(ob, sel, uv, held, res.n_islands, per_face, summary, warnings))
+        notes = [w.worded(_mesh_names(sel)) for w in res.warnings if w.kind in _NOTES]
+        cuts = sel.vert_ids[res.cut_edges] if len(res.cut_edges) else np.zeros((0, 2), dtype=np.int64)
+        solved.append(_Solved(ob, sel, uv, held, res.n_islands, per_face, summary, warnings, notes, cuts))
     return solved
 
 
@@ -480,7 +492,7 @@ def _warnings(res, sel: mesh_io.Selection) -> list[str]:
     pinned to different UVs at their mean, but pins never move here
     (``place_in_uv_space`` puts every pinned corner back on its own UV)."""
     names = _mesh_names(sel)
-    out = [w.worded(names) for w in res.warnings if w.kind != "pin_conflict"]
+    out = [w.worded(names) for w in res.warnings if w.kind != "pin_conflict" and w.kind not in _NOTES]
     if res.stats.pin_conflicts:
         out.append(
             f"{counted(res.stats.pin_conflicts, 'pinned vertex has', 'pinned vertices have')} corners pinned "
@@ -499,7 +511,9 @@ def _report(op, solved, seconds: float) -> None:
         {"INFO"},
         f"Isometric Unwrap: {islands} island(s){where}, stretch worst {worst:#.3g} mean {mean:#.4g}, {seconds:.2f} s",
     )
-    for s in solved:  # warnings per mesh
+    for s in solved:  # notes and warnings per mesh
+        for note in s.notes:
+            op.report({"INFO"}, f"Isometric Unwrap, '{s.sel.name}': {note}")
         for w in s.warnings:
             op.report({"WARNING"}, f"Isometric Unwrap, '{s.sel.name}': {w}")
 

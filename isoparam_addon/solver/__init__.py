@@ -23,6 +23,7 @@ import numpy as np
 
 from . import metrics
 from ._memory import retained
+from .charts import with_charts
 from .cuts import with_extra_cuts
 from .errors import InvalidMeshError, IsoparamError, SolverError
 from .options import Options, Problem
@@ -90,6 +91,8 @@ def parametrize(
     problem = Problem(vertices, faces, seams, inner_edges, pins)
     problem = replace(problem, inner_edges=_off_pins(problem))
     with retained(enabled=_is_large(vertices)):
+        if options.charts:  # (cuts apart what overlaps itself too)
+            return with_charts(problem, options)
         result = with_extra_cuts(problem, options) if options.extra_cuts > 0 else solve(problem, options)
         if options.split_overlaps and (result.islands.crossings > 0).any():
             result = without_overlaps(result, problem, options)

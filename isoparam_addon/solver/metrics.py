@@ -300,8 +300,9 @@ class IslandDistortion:
     (a packer scales islands to fill the square; texel density is reported apart).
 
     Per island (n_islands,): ``area`` (3D), ``symmetric_dirichlet`` at the island's best
-    scale, ``stretch_l2`` and ``stretch_linf`` (Sander et al. 2001) at the scale that gives
-    the island its 3D area, ``flipped`` faces, and ``scale``: the factor that gives the
+    scale, ``stretch_l2`` and ``stretch_linf`` (Sander et al. 2001) and ``stretch`` (the
+    area-weighted mean of ``max(sigma1, 1 / sigma2)``, as :func:`face_stretch` has it per
+    face) at the scale that gives the island its 3D area, ``flipped`` faces, and ``scale``: the factor that gives the
     island its 3D area (its texel density, up to a constant). Overall: ``mean_*`` weighted
     by 3D area, ``worst_stretch`` the largest Linf, ``scale_spread`` the largest over the
     smallest ``scale`` among islands with area.
@@ -311,6 +312,7 @@ class IslandDistortion:
     symmetric_dirichlet: np.ndarray
     stretch_l2: np.ndarray
     stretch_linf: np.ndarray
+    stretch: np.ndarray
     flipped: np.ndarray
     scale: np.ndarray
     mean_symmetric_dirichlet: float
@@ -346,6 +348,8 @@ def per_island(V, F, uv, face_island=None) -> IslandDistortion:
         small_inv = 1.0 / (sig[:, 0] * s)
         l2 = np.sqrt(groups.sum(0.5 * (big_inv**2 + small_inv**2) * w) / A3)
         linf = groups.max(np.where(ok, big_inv, -np.inf))
+        worse = np.maximum(big_inv, np.where(small_inv > 0, 1.0 / small_inv, np.inf))  # max(sigma1, 1/sigma2)
+        stretch = groups.sum(np.where(w > 0, worse * w, 0.0)) / A3
     flips = np.zeros(k, dtype=np.int64)
     if len(F):
         signed = corner_signed_areas(cuv)
@@ -360,6 +364,7 @@ def per_island(V, F, uv, face_island=None) -> IslandDistortion:
         symmetric_dirichlet=sd,
         stretch_l2=l2,
         stretch_linf=linf,
+        stretch=stretch,
         flipped=flips,
         scale=scale,
         mean_symmetric_dirichlet=float((sd[has] * A3[has]).sum() / total) if total > 0 else float("nan"),

@@ -35,6 +35,15 @@ class Options:
         Islands that had to be cut automatically (closed, handles, holes) get up to this
         many more cuts while they help (see :mod:`.cuts`). 0: the shortest cut that
         opens the island, nothing more.
+    charts : bool
+        Cut every island that is not a disk, or that stretches more than
+        ``max_stretch``, into charts that do not (see :mod:`.charts`); islands with pins
+        are left whole. Supersedes ``extra_cuts``.
+    max_stretch : float
+        The charts' budget: an island is cut until its charts' symmetric Dirichlet energy
+        per area (area-weighted, each chart at its best scale) is no more than that of a
+        uniform stretch by this factor, ``2 (s^2 + 1 / s^2)``: 1.18 allows 4.22 (4 is
+        isometric).
     split_overlaps : bool
         Cut an island whose layout overlaps itself where its overlapping parts are least
         apart, and solve the parts again (see :mod:`.untangle`); without, such islands
@@ -48,6 +57,8 @@ class Options:
     split_nonmanifold: bool = True
     refine: int = 0
     extra_cuts: int = 0
+    charts: bool = False
+    max_stretch: float = 1.18
     split_overlaps: bool = False
 
 

@@ -99,6 +99,8 @@ def overlapping_faces(cuv: np.ndarray, faces: np.ndarray, group: np.ndarray):
         return empty, empty
     lo, hi = cuv.min(axis=1), cuv.max(axis=1)
     i, j = _pairs_in_cells(lo, hi, group, _cell(lo, hi))
+    meet = ((lo[i] <= hi[j]) & (lo[j] <= hi[i])).all(axis=1)  # boxes apart: triangles apart
+    i, j = i[meet], j[meet]
     shared = (faces[i][:, :, None] == faces[j][:, None, :]).any(axis=(1, 2))
     i, j = i[~shared], j[~shared]
     # corner coordinates as columns (p,): reductions over axes of length 3 are slow in numpy

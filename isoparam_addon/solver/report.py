@@ -15,7 +15,17 @@ import numpy as np
 
 from .errors import counted
 
-__all__ = ["IslandReport", "SolverWarning", "Stats", "Timings", "defects", "opened", "solver_names", "warnings"]
+__all__ = [
+    "IslandReport",
+    "SolverWarning",
+    "Stats",
+    "Timings",
+    "charted",
+    "defects",
+    "opened",
+    "solver_names",
+    "warnings",
+]
 
 FAR = 1e3  # a refined island with more symmetric Dirichlet energy per area than this is reported
 
@@ -46,6 +56,7 @@ class SolverWarning:
     ``cut_holes``         islands with several boundary loops, cut (islands)
     ``cut_nonorientable`` non-orientable islands, cut (islands)
     ``extra_cuts``        edges cut further to lower distortion (edges; no first)
+    ``charts``            charts that islands were cut into (charts; first: one of them)
     ``not_converged``     islands on which Step 3 missed its tolerance (islands)
     ``degenerate_scale``  islands whose Step 4 scale was clipped (islands; no first)
     ``degenerate_fans``   vertices with no exact reconstruction (vertices; no first)
@@ -182,6 +193,9 @@ class Stats:
         Solves tried with more cuts, and edges cut beyond the shortest opening cut.
     overlap_cuts : int
         Edges cut to part islands that overlapped themselves.
+    charts, chart_rounds : int
+        Islands of the result that are charts of an island that could be cut into charts
+        (no pins), and the rounds of stretch-driven splitting that made them.
     extra_cut_gains : list of float or None
         Per try, the largest relative drop of area distortion among the islands tried
         (None: the try split an island and ended the search).
@@ -202,6 +216,8 @@ class Stats:
     extra_cut_edges: int = 0
     extra_cut_gains: list[float | None] = field(default_factory=list)
     overlap_cuts: int = 0
+    charts: int = 0
+    chart_rounds: int = 0
 
     def count(self, islands: IslandReport) -> None:
         """Set the counters that sum :class:`IslandReport` facts."""
@@ -224,6 +240,7 @@ class Timings:
     refine: float = 0.0
     placement: float = 0.0
     extra_cuts: float = 0.0
+    charts: float = 0.0
     untangle: float = 0.0
     merge: float = 0.0
     total: float = 0.0
@@ -290,6 +307,25 @@ def lowered(added: int, before: np.ndarray, score: np.ndarray) -> list[SolverWar
         f"their area distortion from {before.mean():.3g} to {score.mean():.3g}"
     )
     return [_warning("extra_cuts", added, "", None, template)]
+
+
+def charted(islands: int, not_disks: int, charts: int, energy: float, over: int, budget: float, first: int):
+    """The note that says what was cut into charts (:mod:`.charts`): ``islands`` cut into
+    ``charts`` in all, ``not_disks`` of them because they were not disks (the others
+    because they stretched more than ``budget``), their charts' mean symmetric Dirichlet
+    ``energy`` per area, and how many are still ``over`` the budget."""
+    why = []
+    if not_disks:
+        why.append(f"{not_disks} not {'a disk' if not_disks == 1 else 'disks'}")
+    if islands - not_disks:
+        why.append(f"{islands - not_disks} stretched beyond {budget:.3g}")
+    template = (
+        f"{counted(islands, 'island was', 'islands were')} cut into {charts} charts ({', '.join(why)}; "
+        f"first: {{first}}), distortion {energy:.3f} (4 is isometric)"
+    )
+    if over:
+        template += f"; {over} still stretched beyond {budget:.3g}: mark seams there"
+    return [_warning("charts", charts, "island", first, template)]
 
 
 def warnings(islands: IslandReport, converged: np.ndarray, flipped: np.ndarray, unused: int) -> list[SolverWarning]:

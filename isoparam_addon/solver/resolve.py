@@ -21,13 +21,16 @@ from .islands import Islands
 from .mesh import unit_of
 from .options import Options, Problem
 from .overlap import boundary_crossings
-from .pipeline import solve, topology_warnings
+from .pipeline import TOPOLOGY_WARNINGS, solve, topology_warnings
 from .placement import pack_islands
-from .report import IslandReport, warnings
+from .report import IslandReport, SolverWarning, warnings
 from .result import Parametrization, per_corner_and_vertex
 from .topology import build_topology
 
-__all__ = ["Part", "combine", "pairs", "solve_islands"]
+__all__ = ["Part", "carried_warnings", "combine", "cut_further", "pairs", "solve_islands"]
+
+# what a search's first solve decided, which solving some islands again does not say again
+_DECIDED = (*TOPOLOGY_WARNINGS, "extra_cuts", "charts")
 
 
 class Part:
@@ -73,6 +76,26 @@ def solve_islands(problem: Problem, faces: np.ndarray, options: Options) -> Part
     # split_nonmanifold: two wedges of an island around a vertex that other islands' faces
     # separated (with seams) meet at a bare vertex once those faces are left out
     return Part(solve(part, replace(options, pack=False, split_nonmanifold=True)), faces, used)
+
+
+def cut_further(
+    result: Parametrization, problem: Problem, new: np.ndarray, islands: np.ndarray, options: Options
+) -> Parametrization:
+    """``result`` (whose ``cut_edges`` are every cut so far) with ``islands`` cut along the
+    ``new`` edges (k, 2 vertex pairs) too, solved again alone from their layout (with
+    refinement: the pieces go on from it, fold-free) and put back. The result's
+    ``cut_edges`` are all cuts: the old, the new, and those that opened a piece that was
+    no disk."""
+    cuts = np.vstack([result.cut_edges, new])
+    start = result.corner_uv if options.refine else None
+    seams = np.vstack([pairs(problem.seams), cuts])
+    trying = replace(problem, vertices=result.vertices, faces=result.faces, seams=seams, start=start)
+    part = solve_islands(trying, np.flatnonzero(np.isin(result.face_island, islands)), options)
+    cuts = np.vstack([cuts, part.cut_edges])
+    cut_islands = result.cut_islands
+    result = combine(result, [part], replace(trying, seams=np.vstack([seams, part.cut_edges]), start=None), options)
+    result.cut_edges, result.cut_islands = cuts, cut_islands
+    return result
 
 
 class _Source(NamedTuple):
@@ -169,3 +192,18 @@ def _four_step_facts(report: IslandReport, first: Parametrization, parent: np.nd
     once[np.unique(came, return_index=True)[1]] = True
     report.extra_vertex[islands] = np.where(once, first.islands.extra_vertex[came], 0)
     report.regularized[islands] = np.where(once, first.islands.regularized[came], 0)
+
+
+def carried_warnings(first: Parametrization, result: Parametrization) -> list[SolverWarning]:
+    """``result``'s warnings, with what ``first`` (the search's first solve, or the result
+    it went on from) said about the topology, extra cuts and charts in place of what
+    :func:`combine` says again. An island named by ``first`` is named as the island of
+    ``result`` that holds its lowest-numbered face."""
+    lowest = np.full(first.n_islands, len(first.faces), dtype=np.int64)
+    np.minimum.at(lowest, first.face_island, np.arange(len(first.faces)))
+    kept = [
+        replace(w, first=(int(result.face_island[lowest[w.first[0]]]),)) if w.element == "island" and w.first else w
+        for w in first.warnings
+        if w.kind in _DECIDED
+    ]
+    return kept + [w for w in result.warnings if w.kind not in _DECIDED]

@@ -79,12 +79,17 @@ class Parametrization:
         cuv = np.where(turned[:, :, None], self.corner_uv[:, ::-1], self.corner_uv)
         return metrics.distortion(self.vertices, F, cuv, self.face_island)
 
-    def overlaps(self):
+    def overlaps(self, islands: np.ndarray | None = None):
         """How its islands overlap themselves (:class:`.overlap.Overlaps`: boundary
-        crossings, UV area covered twice, the faces involved)."""
-        from .overlap import self_overlaps
+        crossings, UV area covered twice, the faces involved); only ``islands`` (k,) if
+        given (the others count as not overlapping)."""
+        from .overlap import Overlaps, self_overlaps
 
-        return self_overlaps(self.faces, self.corner_uv, self.face_island, self.n_islands)
+        if islands is None:
+            return self_overlaps(self.faces, self.corner_uv, self.face_island, self.n_islands)
+        at = np.flatnonzero(np.isin(self.face_island, islands))
+        found = self_overlaps(self.faces[at], self.corner_uv[at], self.face_island[at], self.n_islands)
+        return Overlaps(found.crossings, found.area, (at[found.pairs[0]], at[found.pairs[1]]))
 
 
 def per_corner_and_vertex(uv_split: np.ndarray, topo: Topology, n: int):

@@ -102,7 +102,7 @@ def test_peaks_through_the_operator_matches_the_solver(scene, refine):
     V, F = ex.peaks(41)
     ob = add_mesh("peaks", V, F)
     edit(ob)
-    assert unwrap(refine=refine) == {"FINISHED"}
+    assert unwrap(refine=refine, charts=False) == {"FINISHED"}  # (one island, as the solver's default)
     object_mode()
     Vb, Fb, cuv = triangle_uvs(ob)
     ours = metrics.distortion(Vb, Fb, cuv)
@@ -171,7 +171,7 @@ def test_a_single_island_gets_the_margin_blenders_pack_gives_it(scene, margin):
     V, F = ex.peaks(15)
     ob = add_mesh("peaks", V, F)
     edit(ob)
-    assert unwrap(margin=margin) == {"FINISHED"}
+    assert unwrap(margin=margin, charts=False) == {"FINISHED"}  # (charts would cut the peaks)
     object_mode()
     ours = corner_uvs(ob).copy()
     assert ours.min() > 0 and ours.max() < 1 and np.ptp(ours, axis=0).min() > 0.5
@@ -275,7 +275,7 @@ def test_one_pin_keeps_the_islands_old_turn(scene):
     bpy.ops.object.join()
     ob = bpy.context.active_object
     edit(ob)
-    unwrap()
+    unwrap(charts=False)  # (charts would cut the peaks)
     object_mode()
     uv = corner_uvs(ob).copy()
     cv = corner_verts(ob)
@@ -284,7 +284,7 @@ def test_one_pin_keeps_the_islands_old_turn(scene):
     uv[mine] = centre + (uv[mine] - centre) @ np.array([[0.0, 1.0], [-1.0, 0.0]])  # a quarter turn
     set_uvs_and_pins(ob, uv, cv == 40)  # pinned: the centre vertex of the first island
     edit(ob)
-    assert unwrap() == {"FINISHED"}
+    assert unwrap(charts=False) == {"FINISHED"}
     object_mode()
     after = corner_uvs(ob).astype(np.float64)
     a = uv[mine] - uv[cv == 40][0]
@@ -505,7 +505,7 @@ def test_hidden_and_unselectable_objects_stay_in_edit_mode(scene, operator):
         assert np.ptp(corner_uvs(c), axis=0).min() > 0.05  # unselectable but visible: unwrapped
 
 
-def test_undo_restores_the_previous_uvs(scene):
+def test_undo_restores_the_previous_uvs_and_seams(scene):
     # Headless Blender records no edit-mode undo steps (measured: ed.undo() in edit mode
     # goes back to the last global step), so the step is pushed in object mode.
     V, F = ex.peaks(21)
@@ -516,13 +516,18 @@ def test_undo_restores_the_previous_uvs(scene):
     before = corner_uvs(ob).copy()
     bpy.ops.ed.undo_push(message="before isometric unwrap")
     edit(ob)
-    assert unwrap() == {"FINISHED"}
+    assert unwrap(mark_seams=True) == {"FINISHED"}  # the peaks are cut into charts
     object_mode()
     assert not np.allclose(corner_uvs(ob), before)
+    seams = np.zeros(len(ob.data.edges), dtype=bool)
+    ob.data.edges.foreach_get("use_seam", seams)
+    assert seams.any()
     bpy.ops.ed.undo_push(message="after isometric unwrap")
     bpy.ops.ed.undo()
     ob = bpy.data.objects["peaks"]
     assert np.array_equal(corner_uvs(ob), before)
+    ob.data.edges.foreach_get("use_seam", seams)
+    assert not seams.any()
     bpy.ops.ed.redo()
     assert not np.allclose(corner_uvs(bpy.data.objects["peaks"]), before)
 
@@ -690,13 +695,15 @@ def test_correct_aspect_takes_one_image_per_object_as_blender_does(scene, active
 
 
 @pytest.mark.parametrize("primitive", ["cube", "cylinder", "cone"])
-def test_automatic_cuts_of_closed_polygon_meshes_follow_mesh_edges(scene, primitive):
+@pytest.mark.parametrize("charts", [False, True])
+def test_automatic_cuts_of_closed_polygon_meshes_follow_mesh_edges(scene, primitive, charts):
     # the cut used to run along quad and n-gon diagonals, which exist only after
     # triangulation: a face corner then needed two UVs and the written triangles folded
+    # (the charts' cells and cuts, too, keep to the faces' edges)
     getattr(bpy.ops.mesh, f"primitive_{primitive}_add")()
     ob = bpy.context.object
     edit(ob)
-    assert unwrap() == {"FINISHED"}
+    assert unwrap(charts=charts) == {"FINISHED"}
     object_mode()
     uv = corner_uvs(ob).astype(np.float64)[triangles(ob)]
     e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
@@ -713,7 +720,7 @@ def test_extra_cuts_open_a_closed_cube_towards_its_corners(scene):
     bpy.ops.mesh.subdivide(number_cuts=5)
     measured = {}
     for cuts in (0, 4):
-        assert unwrap(extra_cuts=cuts) == {"FINISHED"}
+        assert unwrap(extra_cuts=cuts, charts=False) == {"FINISHED"}
         object_mode()
         V, F, uv = triangle_uvs(ob)
         measured[cuts] = metrics.distortion(V, F, uv)
@@ -722,3 +729,27 @@ def test_extra_cuts_open_a_closed_cube_towards_its_corners(scene):
     # measured on bpy 5.0.1: area distortion 0.290 -> 0.053, symmetric Dirichlet 4.65 -> 4.06
     assert measured[4].area_distortion < 0.25 * measured[0].area_distortion
     assert measured[4].symmetric_dirichlet < 4.2 < measured[0].symmetric_dirichlet
+
+
+def test_charts_cut_a_closed_mesh_and_mark_seams_keeps_the_cuts(scene, capfd):
+    bpy.ops.mesh.primitive_uv_sphere_add()  # closed, no seams
+    ob = bpy.context.object
+    edit(ob)
+    capfd.readouterr()
+    assert unwrap(mark_seams=True) == {"FINISHED"}
+    text = capfd.readouterr().out
+    object_mode()
+    V, F, cuv = triangle_uvs(ob)
+    charts = len(np.unique(metrics.uv_islands(F, cuv)))
+    seams = np.zeros(len(ob.data.edges), dtype=bool)
+    ob.data.edges.foreach_get("use_seam", seams)
+    assert charts > 1 and seams.any()
+    assert f"1 island was cut into {charts} charts (1 not a disk" in text
+    assert metrics.distortion(V, F, cuv).flipped == 0
+    # the marked seams are the charts: unwrapped again along them, charts off, the same islands
+    edit(ob)
+    assert unwrap(charts=False) == {"FINISHED"}
+    object_mode()
+    V, F, again = triangle_uvs(ob)
+    assert len(np.unique(metrics.uv_islands(F, again))) == charts
+    assert metrics.distortion(V, F, again).flipped == 0

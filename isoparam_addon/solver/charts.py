@@ -1,0 +1,335 @@
+"""Beyond the paper: charts. An island that is not a disk, or whose layout stretches more
+than a budget, is cut into a few charts, each laid out near-isometrically.
+
+A closed surface opened along its shortest cut (:mod:`.cutgraph`) flattens with regions
+squeezed and others blown up: Suzanne, spot or a character is far from isometric as one
+island. Region-growing chart makers (D-Charts, Julius et al. 2005; xatlas) cut into tens
+to thousands of charts by face normals; distortion-driven cutting (Gu, Gortler and Hoppe,
+"Geometry images", 2002; OptCuts, Li et al. 2018) cuts only where the layout needs it.
+Here, in that second spirit, and with few solves:
+
+1. **Cells.** An island that holds more Gaussian curvature than half a sphere (a closed
+   part, or one with small holes: no single cut flattens it without crushing some of it)
+   is split into ``_CELLS`` cells around seeds spread by farthest-point sampling
+   (geodesic distance over the faces' adjacency), each face going to its nearest seed;
+   where two seeds are about as near, the boundary moves onto the cheapest edges
+   (:mod:`.mincut`: short, along creases). Each cell flattens without the extreme
+   squeeze of one cut, which also spares the refinement its slowest starts. Tubes and
+   tori (little curvature) are opened by the usual cut (:mod:`.cutgraph`) instead.
+2. **Solve** the mesh with the cells' boundaries as seams (a cell that is still not a
+   disk is cut open as usual).
+3. **Split where it stretches.** While an island's charts are more distorted than the
+   budget on (area-weighted) average, the charts that hold most of its excess are each
+   cut in two: a minimum cut between a ball around its most squeezed faces and one
+   around its most stretched, which lie on either side of where the layout had to tear
+   the surface. Charts that overlap themselves are cut apart in the same round
+   (:func:`.untangle.separating_cuts`). The pieces go on from the layout they were cut
+   from, alone (:func:`.resolve.cut_further`), so a round costs one solve of the charts
+   it cuts.
+
+The budget is given as a stretch factor ``s``: an island may be as distorted (symmetric
+Dirichlet energy per area, each chart at its best scale) as one stretched uniformly by
+``s`` (:func:`energy_budget`), which is the energy the refinement lowers.
+
+Islands with pins are left as they are (their layout is the pins' to shape).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
+
+from . import metrics
+from .geometry import corner_angles, corner_signed_areas, face_areas
+from .mincut import FaceGraph, face_graph, minimum_cut, source_side
+from .options import Options, Problem
+from .pipeline import TOPOLOGY_WARNINGS, solve, topology_warnings
+from .report import SolverWarning, charted, opened
+from .resolve import cut_further, pairs
+from .result import Parametrization
+from .topology import Topology, build_topology
+from .untangle import separating_cuts, without_overlaps
+
+__all__ = ["with_charts"]
+
+_CELLS = 3  # cells per island ...
+_CURVED = 2.0 * np.pi  # ... whose interior holds more Gaussian curvature than this (half a sphere)
+_ROUNDS = 8  # split, solve again, measure: at most this many times
+_COVER = 0.5  # a round splits the charts that hold this share of their island's excess stretch
+_BALL = 0.35  # radius of the balls cut apart, as a share of the distance between their centres
+_SMOOTH = 3  # rounds of neighbour averaging of the area ratio that places the balls
+_LEAVE = 0.1  # charts within this share of the budget's excess over isometric are not split
+_BAND = 0.1  # a cell boundary moves where its two seeds' distances differ by less than this share of the cell radius
+_TIE = 1e-9  # distances this close (relative) are equal: the lowest-numbered face is the seed
+
+
+@dataclass(frozen=True)
+class _Owners:
+    """The islands as the caller's seams make them, which charts are cut from."""
+
+    face: np.ndarray  # (m,) the island of each face
+    charted: np.ndarray  # (k,) islands that may be cut into charts (no pins)
+    topo: Topology
+
+
+def with_charts(problem: Problem, options: Options) -> Parametrization:
+    """:func:`.pipeline.solve`, with every island that is not a disk, or that stretches
+    more than ``options.max_stretch`` allows (:func:`energy_budget`), cut into charts;
+    then, with ``options.split_overlaps``, charts that overlap themselves cut apart."""
+    t0 = time.perf_counter()
+    V, F, topo = build_topology(
+        problem.vertices, problem.faces, problem.seams, options.split_nonmanifold, problem.inner_edges
+    )
+    owners = _owners(problem, topo)
+    seams = pairs(problem.seams)
+    graph = face_graph(V, F, owners.face, seams, problem.inner_edges)
+    curved = owners.charted[_curvature(V, F, owners.face, graph, topo.n_islands)[owners.charted] > _CURVED]
+    cells = _cell_boundaries(graph, owners.face, curved)
+    problem = replace(problem, vertices=V, faces=F)
+    result = solve(replace(problem, seams=np.vstack([seams, cells])), options)
+    first_solve = result.timings.total
+    result.cut_edges = np.vstack([cells, result.cut_edges])
+    rounds = 0
+    for rounds in range(1, _ROUNDS + 1):
+        # split what stretches too much, and cut apart what overlaps itself, in one solve
+        seams_now = np.vstack([seams, result.cut_edges])
+        graph = face_graph(V, F, result.face_island, seams_now, problem.inner_edges)
+        new, split = _stretch_cuts(result, graph, owners, options.max_stretch)
+        overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
+        if len(overlapping):
+            apart = separating_cuts(result, problem, overlapping, graph)
+            result.stats.overlap_cuts += len(apart)
+            new, split = np.vstack([new, apart]), np.union1d(split, overlapping)
+        if not len(new):
+            rounds -= 1
+            break
+        result = cut_further(result, problem, new, split, options)
+    result.cut_islands = topo.cut_islands
+    result.timings.charts = time.perf_counter() - t0 - first_solve
+    if options.split_overlaps and (result.islands.crossings > 0).any():
+        result = without_overlaps(result, problem, options)
+    result.warnings = _warnings(result, owners, options.max_stretch)
+    result.stats.charts = int(len(np.unique(result.face_island[np.isin(owners.face, owners.charted)])))
+    result.stats.chart_rounds = rounds
+    result.timings.total = time.perf_counter() - t0
+    return result
+
+
+def _owners(problem: Problem, topo: Topology) -> _Owners:
+    """Which islands may be cut into charts: those without a pinned corner."""
+    pinned = np.zeros(topo.n_islands, dtype=bool)
+    if problem.pins is not None:
+        mask = np.asarray(problem.pins[0], dtype=bool)
+        pinned[topo.face_island[mask.any(axis=1)]] = True
+    return _Owners(topo.face_island, np.flatnonzero(~pinned), topo)
+
+
+def _curvature(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, graph: FaceGraph, n: int) -> np.ndarray:
+    """Per island (n,), the Gaussian curvature of its interior: the sum of the angle
+    defects ``2 pi - sum of angles`` of its vertices whose faces close around them (4 pi
+    for a closed surface of genus 0, less the turning of its boundary for one with holes;
+    about 0 for a tube or a torus)."""
+    angle, _, _ = corner_angles(V, F)
+    flat = F.ravel()
+    faces_at = np.bincount(flat, minlength=len(V))
+    joined_at = np.bincount(graph.edges.ravel(), minlength=len(V))
+    interior = (faces_at > 0) & (faces_at == joined_at)  # a closed fan: as many joined edges as faces
+    defect = 2.0 * np.pi - np.bincount(flat, angle, minlength=len(V))
+    island = np.zeros(len(V), dtype=np.int64)
+    island[flat] = np.repeat(face_island, 3)
+    return np.bincount(island[interior], defect[interior], minlength=n)
+
+
+def _cell_boundaries(graph: FaceGraph, face_island: np.ndarray, islands: np.ndarray) -> np.ndarray:
+    """The edges (k, 2 vertex pairs) between ``_CELLS`` cells of each island in ``islands``.
+
+    Seeds are spread by farthest-point sampling and every face goes to the cell of its
+    nearest seed; then the cells' boundaries are moved, within a band where the two
+    nearest seeds are about as near, onto the cheapest edges (:mod:`.mincut`), one cell
+    after the other against the cores of those not placed yet."""
+    if not len(islands):
+        return np.zeros((0, 2), dtype=np.int64)
+    G = graph.distances()
+    on = np.isin(face_island, islands)
+    far = csgraph.dijkstra(G, directed=False, indices=_first_faces(face_island)[islands], min_only=True)
+    seeds = [_farthest(far, on, face_island, islands)]
+    reach = [csgraph.dijkstra(G, directed=False, indices=seeds[0], min_only=True)]
+    for _ in range(_CELLS - 1):
+        seeds.append(_farthest(np.min(reach, axis=0), on, face_island, islands))
+        reach.append(csgraph.dijkstra(G, directed=False, indices=seeds[-1], min_only=True))
+    distance = np.array(reach)  # (cells, m): from every island's j-th seed
+    cell = np.argmin(distance, axis=0)
+    near = np.sort(distance, axis=0)
+    radius = np.zeros(int(face_island.max()) + 1)
+    np.maximum.at(radius, face_island[on], near[0][on])
+    with np.errstate(invalid="ignore"):  # (inf - inf off the islands)
+        loose = on & (near[1] - near[0] < _BAND * radius[face_island])  # where a boundary may move
+    open_ = on.copy()  # faces not placed in a cell yet
+    for j in range(_CELLS - 1):
+        source = open_ & (cell == j) & ~loose
+        sink = open_ & (cell > j) & ~loose
+        side = source_side(graph.among(open_), source, sink) & open_
+        cell[open_] = np.where(side[open_], j, np.maximum(cell[open_], j + 1))
+        open_ &= ~side
+    cell = _whole_polygons(graph, cell)
+    crossed = on[graph.f] & (cell[graph.f] != cell[graph.g])
+    return np.unique(graph.edges[crossed], axis=0)
+
+
+def _whole_polygons(graph: FaceGraph, cell: np.ndarray) -> np.ndarray:
+    """``cell`` (m,) with the triangles of every polygon in the cell of its lowest-numbered
+    triangle: a seam along a diagonal would give a face corner two UVs."""
+    polygon = graph.polygons()
+    return cell if polygon is None else cell[polygon]
+
+
+def _farthest(distance: np.ndarray, on: np.ndarray, face_island: np.ndarray, islands: np.ndarray) -> np.ndarray:
+    """Per island in ``islands``, its face farthest by ``distance`` (m,) (the lowest-numbered
+    among those within ``_TIE`` of the farthest, so that rounding does not choose)."""
+    d = np.where(on & np.isfinite(distance), distance, -np.inf)
+    best = np.full(int(face_island.max()) + 1, -np.inf)
+    np.maximum.at(best, face_island[on], d[on])
+    hit = on & (d >= best[face_island] * (1.0 - _TIE))
+    first = np.full(len(best), len(d), dtype=np.int64)
+    np.minimum.at(first, face_island[hit], np.flatnonzero(hit))
+    return first[islands]
+
+
+def energy_budget(max_stretch: float) -> float:
+    """The symmetric Dirichlet energy per area of a layout stretched uniformly by
+    ``max_stretch``: ``2 (s^2 + 1 / s^2)`` (4 at 1, isometric)."""
+    return 2.0 * (max_stretch**2 + max_stretch**-2)
+
+
+def _chart_energy(result: Parametrization, owners: _Owners):
+    """Per island of ``result`` (a chart): its symmetric Dirichlet energy per area at its
+    best scale, its 3D area (0 for charts of islands that are not charted, or without
+    area), and the island it was cut from."""
+    per = metrics.per_island(result.vertices, result.faces, result.corner_uv, result.face_island)
+    owner = owners.face[_first_faces(result.face_island, result.n_islands)]
+    ok = np.isin(owner, owners.charted) & (per.area > 0) & np.isfinite(per.symmetric_dirichlet)
+    return np.where(ok, per.symmetric_dirichlet, 4.0), np.where(ok, per.area, 0.0), owner
+
+
+def _stretch_cuts(result: Parametrization, graph: FaceGraph, owners: _Owners, budget: float):
+    """The cuts of one round (k, 2 vertex pairs) and the islands of ``result`` they split:
+    in every charted island whose charts stretch more than ``budget`` on average, the
+    charts holding ``_COVER`` of its excess, each cut between its most squeezed and its
+    most stretched place."""
+    none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
+    energy, area, owner = _chart_energy(result, owners)
+    k = owners.topo.n_islands
+    mean = np.bincount(owner, energy * area, minlength=k) / np.maximum(np.bincount(owner, area, minlength=k), 1e-300)
+    limit = energy_budget(budget)
+    over = (area > 0) & (mean[owner] > limit)
+    if not over.any():
+        return none
+    excess = np.where(over, (energy - 4.0) * area, 0.0)
+    order = np.lexsort((-excess, owner))  # by island, most excess first
+    sorted_owner = owner[order]
+    running = np.concatenate([[0.0], np.cumsum(excess[order])])
+    before = running[:-1] - running[np.searchsorted(sorted_owner, sorted_owner)]  # excess ahead in its island
+    total = np.bincount(owner, excess, minlength=k)
+    chosen = order[(before < _COVER * total[sorted_owner]) & over[order]]
+    chosen = chosen[energy[chosen] > 4.0 + _LEAVE * (limit - 4.0)]  # leave near-isometric charts
+    if not len(chosen):
+        return none
+    source, sink = _balls(result, graph, chosen)
+    cut = minimum_cut(graph.among(np.isin(result.face_island, chosen)), source, sink)
+    return (cut, chosen) if len(cut) else none
+
+
+def _balls(result: Parametrization, graph: FaceGraph, charts: np.ndarray):
+    """Per chart in ``charts``, the faces (m,) bool within ``_BALL`` of the distance between
+    its most squeezed and its most stretched face (area ratio against the chart's, smoothed
+    over neighbours) of the one and of the other."""
+    V, F, isl = result.vertices, result.faces, result.face_island
+    m = len(F)
+    a3 = face_areas(V, F)
+    a2 = np.abs(corner_signed_areas(result.corner_uv))
+    A3 = np.bincount(isl, a3, minlength=result.n_islands)
+    A2 = np.bincount(isl, a2, minlength=result.n_islands)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.log(np.maximum(a2, 1e-300) / np.maximum(a3, 1e-300)) - np.log(A2 / A3)[isl]
+    ratio = np.where(np.isfinite(ratio), ratio, 0.0)
+    adjacency = sp.coo_matrix((np.ones(len(graph.f)), (graph.f, graph.g)), shape=(m, m))
+    adjacency = (adjacency + adjacency.T).tocsr()
+    for _ in range(_SMOOTH):  # area-weighted mean over each face and its neighbours
+        ratio = (adjacency @ (ratio * a3) + ratio * a3) / np.maximum(adjacency @ a3 + a3, 1e-300)
+    on = np.isin(isl, charts)
+    low = _extreme(np.where(on, ratio, np.inf), isl, charts, np.minimum, np.inf)
+    high = _extreme(np.where(on, ratio, -np.inf), isl, charts, np.maximum, -np.inf)
+    G = graph.distances()
+    from_low = csgraph.dijkstra(G, directed=False, indices=low, min_only=True)
+    from_high = csgraph.dijkstra(G, directed=False, indices=high, min_only=True)
+    reach = np.full(result.n_islands, -1.0)
+    reach[charts] = _BALL * from_low[high]
+    source = on & (from_low <= reach[isl])
+    sink = on & (from_high <= reach[isl]) & ~source
+    return source, sink
+
+
+def _charted(result: Parametrization, owners: _Owners, budget: float) -> list[SolverWarning]:
+    """The note on what was cut into charts: how many islands, why, into how many charts,
+    how much they stretch, and how many are still over the budget."""
+    energy, area, owner = _chart_energy(result, owners)
+    pieces = np.bincount(owner, minlength=owners.topo.n_islands)
+    cut = np.flatnonzero(pieces > 1)
+    if not len(cut):
+        return []
+    total = np.bincount(owner, area, minlength=len(pieces))
+    mean = np.bincount(owner, energy * area, minlength=len(pieces)) / np.maximum(total, 1e-300)
+    first = result.face_island[_first_faces(owners.face)[cut[0]]]
+    return charted(
+        islands=len(cut),
+        not_disks=int(np.isin(cut, owners.topo.cut_islands).sum()),
+        charts=int(pieces[cut].sum()),
+        energy=float((mean[cut] * total[cut]).sum() / max(total[cut].sum(), 1e-300)),
+        over=int((mean[cut] > energy_budget(budget)).sum()),
+        budget=budget,
+        first=int(first),
+    )
+
+
+def _first_faces(face_island: np.ndarray, n: int | None = None) -> np.ndarray:
+    """The lowest-numbered face of every island (n,)."""
+    first = np.full(int(face_island.max()) + 1 if n is None else n, len(face_island), dtype=np.int64)
+    np.minimum.at(first, face_island, np.arange(len(face_island)))
+    return first
+
+
+def _extreme(value: np.ndarray, isl: np.ndarray, charts: np.ndarray, ufunc, empty: float) -> np.ndarray:
+    """Per chart in ``charts``, the lowest-numbered face where ``value`` (m,) is extreme."""
+    best = np.full(int(isl.max()) + 1, empty)
+    ufunc.at(best, isl, value)
+    hit = np.isin(isl, charts) & (value == best[isl])
+    first = np.full(len(best), len(value), dtype=np.int64)
+    np.minimum.at(first, isl[hit], np.flatnonzero(hit))
+    return first[charts]
+
+
+def _warnings(result: Parametrization, owners: _Owners, budget: float) -> list[SolverWarning]:
+    """The result's warnings, with what the charts did in place of what the topology cut:
+    the islands cut into charts are named once, by why."""
+    topo = owners.topo
+    kept = np.setdiff1d(topo.cut_islands, owners.charted)  # pinned islands cut open as before
+
+    first = _first_faces(owners.face, topo.n_islands)
+
+    def now(islands):  # the result's island holding each island's first face
+        return result.face_island[first[np.intersect1d(islands, kept)]]
+
+    before = topology_warnings(topo)
+    out = [w for w in before if w.kind not in ("cut_closed", "cut_handles", "cut_holes", "cut_nonorientable")]
+    out += opened(
+        now(topo.closed_islands),
+        now(topo.handle_islands),
+        now(topo.multi_boundary_islands),
+        now(topo.nonorientable_islands),
+    )
+    out += _charted(result, owners, budget)
+    return out + [w for w in result.warnings if w.kind not in TOPOLOGY_WARNINGS]

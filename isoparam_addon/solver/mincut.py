@@ -1,0 +1,196 @@
+"""Seams as minimum cuts: the faces' adjacency graph, what cutting each edge costs, and the
+cheapest set of edges that separates two sets of faces.
+
+Both searches that cut islands apart (:mod:`.untangle`, :mod:`.charts`) ask the same
+question: which edges, as short and as little in sight as possible, separate these faces
+from those? That is a minimum cut of the dual graph (faces joined across the edges that
+are neither seams nor cuts), solved as a maximum flow (Ford & Fulkerson; scipy's Dinic,
+integer capacities).
+
+An edge's cost is its 3D length, less where the surface folds sharply across it: a seam
+along a crease follows a line the eye already sees, where a texture's break hides
+(xatlas and D-Charts prefer such edges for the same reason). A polygon's diagonal is
+never cut: a face corner would need two UVs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
+
+from .mesh import HalfEdges, edge_mask
+
+__all__ = ["FaceGraph", "face_graph", "minimum_cut", "source_side"]
+
+_CREASE = np.pi / 2  # a crease this sharp (angle between the face normals) or sharper ...
+_CREASE_COST = 0.25  # ... costs this much of its length to cut
+_NEVER = 1 << 24  # capacity of an edge that is never cut
+_UNITS = 1000  # capacity of an edge of typical length and no crease
+_REGION_FROM = 4000  # faces: a smaller graph flows whole at once
+_REACH = 1.5  # the first region around the sources and sinks (see source_side)
+
+
+@dataclass(frozen=True)
+class FaceGraph:
+    """The faces of a mesh joined across its edges that are neither seams nor cuts.
+
+    Attributes
+    ----------
+    f, g : (k,) int64
+        The two faces of each joining edge.
+    edges : (k, 2) int64
+        The joining edges as sorted mesh vertex pairs.
+    cost : (k,) float64
+        What cutting each edge costs: its 3D length, less along creases; inf for an edge
+        never to cut (a polygon's diagonal).
+    centroids : (m, 3) float64
+        Face centroids (the graph's distances are between them).
+    """
+
+    f: np.ndarray
+    g: np.ndarray
+    edges: np.ndarray
+    cost: np.ndarray
+    centroids: np.ndarray
+
+    @property
+    def n_faces(self) -> int:
+        return len(self.centroids)
+
+    def among(self, faces: np.ndarray) -> FaceGraph:
+        """The graph with only the edges between two of ``faces`` (m,) bool."""
+        keep = faces[self.f] & faces[self.g]
+        return FaceGraph(self.f[keep], self.g[keep], self.edges[keep], self.cost[keep], self.centroids)
+
+    def polygons(self) -> np.ndarray | None:
+        """The polygon of every face (m,): faces joined across edges never to cut (a
+        polygon's diagonals) share one, numbered by its lowest face; None if there are
+        no such edges."""
+        never = ~np.isfinite(self.cost)
+        if not never.any():
+            return None
+        m = self.n_faces
+        joined = sp.coo_matrix((np.ones(int(never.sum())), (self.f[never], self.g[never])), shape=(m, m))
+        _, label = csgraph.connected_components(joined, directed=False)
+        lowest = np.full(int(label.max()) + 1, m, dtype=np.int64)
+        np.minimum.at(lowest, label, np.arange(m))
+        return lowest[label]
+
+    def distances(self) -> sp.csr_matrix:
+        """The graph weighted by the distance between face centroids (symmetric)."""
+        m = self.n_faces
+        d = np.linalg.norm(self.centroids[self.f] - self.centroids[self.g], axis=1)
+        d += 1e-12 * max(float(d.max(initial=0.0)), 1e-300)  # csgraph drops zero weights
+        graph = sp.coo_matrix((d, (self.f, self.g)), shape=(m, m))
+        return (graph + graph.T).tocsr()
+
+
+def face_graph(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, cut, inner_edges=None) -> FaceGraph:
+    """The :class:`FaceGraph` of mesh ``V`` (n, 3), ``F`` (m, 3): faces of one island
+    (``face_island`` (m,)) joined across the edges that are not among ``cut`` (k, 2 vertex
+    pairs: seams and cuts so far) and are shared by exactly two faces. ``inner_edges``
+    (vertex pairs) are never to be cut."""
+    n, m = len(V), len(F)
+    he = HalfEdges(F, n)
+    cut_mask = edge_mask(he, n, cut)
+    h = np.flatnonzero(he.twin > np.arange(3 * m))
+    f, g = h // 3, he.twin[h] // 3
+    e = he.edge[h]
+    keep = (face_island[f] == face_island[g]) & ~cut_mask[e] & (he.edge_count[e] == 2)
+    f, g, e = f[keep], g[keep], e[keep]
+    edges = he.edge_vertices[e]
+    length = np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1)
+    normal = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    # (a mesh not consistently oriented reads some flat edges as creases: only a cost)
+    angle = np.arccos(np.clip((normal[f] * normal[g]).sum(axis=1), -1.0, 1.0))
+    cost = length * (1.0 - (1.0 - _CREASE_COST) * np.minimum(angle / _CREASE, 1.0))
+    inner = edge_mask(he, n, inner_edges, "inner_edges")[e]
+    cost[inner] = np.inf
+    return FaceGraph(f, g, edges, cost, V[F].mean(axis=1))
+
+
+def minimum_cut(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.ndarray:
+    """The edges (k, 2 sorted vertex pairs) of a cheapest cut of ``graph`` between the
+    ``source`` and the ``sink`` faces (m,) bool (disjoint). Components with faces of only
+    one side, or none, are not cut."""
+    side = source_side(graph, source, sink)
+    return np.unique(graph.edges[side[graph.f] != side[graph.g]], axis=0)
+
+
+def source_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.ndarray:
+    """The faces (m,) bool on the ``source`` side of a cheapest cut of ``graph`` between the
+    ``source`` and the ``sink`` faces (m,) bool (disjoint): those still joined to a source
+    face once the cut edges are removed.
+
+    On a large graph the flow first runs in a region around the two sets (the faces whose
+    distances to both add up to at most ``_REACH`` times the most any source or sink face
+    has), which holds the short cuts between sets that are close; the region doubles until
+    its cut separates every source face from every sink face (at worst, the whole graph).
+    """
+    polygon = graph.polygons()
+    if polygon is not None:  # a polygon is on one side whole: its source faces claim it
+        source = np.bincount(polygon, source, minlength=graph.n_faces)[polygon] > 0
+        sink = (np.bincount(polygon, sink, minlength=graph.n_faces)[polygon] > 0) & ~source
+    if graph.n_faces < _REGION_FROM or not source.any() or not sink.any():
+        return _flow_side(graph, source, sink)
+    G = graph.distances()
+    to_source = csgraph.dijkstra(G, directed=False, indices=np.flatnonzero(source), min_only=True)
+    to_sink = csgraph.dijkstra(G, directed=False, indices=np.flatnonzero(sink), min_only=True)
+    n_parts, part = csgraph.connected_components(G, directed=False)
+    total = to_source + to_sink
+    ends = (source | sink) & np.isfinite(total)
+    spread = np.zeros(n_parts)
+    np.maximum.at(spread, part[ends], total[ends])
+    reach = _REACH
+    while True:
+        region = (total <= reach * spread[part]) | source | sink
+        cut = _flow_side(graph.among(region), source, sink)
+        crossed = region[graph.f] & region[graph.g] & (cut[graph.f] != cut[graph.g])
+        side = _joined(graph, ~crossed, source)
+        if region.all() or not (side & sink).any():
+            return side
+        reach *= 2.0
+
+
+def _joined(graph: FaceGraph, keep: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """The faces (m,) bool joined to a ``source`` face over the edges ``keep`` (k,) bool."""
+    m = graph.n_faces
+    G = sp.coo_matrix((np.ones(int(keep.sum()), dtype=np.int8), (graph.f[keep], graph.g[keep])), shape=(m, m))
+    _, label = csgraph.connected_components(G, directed=False)
+    return np.isin(label, label[source])
+
+
+def _flow_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.ndarray:
+    """:func:`source_side` by one maximum flow over all of ``graph``: the faces reachable
+    from the source in the residual graph."""
+    m = graph.n_faces
+    # only the faces the edges, sources and sinks touch take part, numbered 0..k-1
+    node = np.zeros(m, dtype=bool)
+    node[graph.f] = node[graph.g] = True
+    node |= source | sink
+    index = np.cumsum(node) - 1
+    k = int(node.sum())
+    f, g = index[graph.f], index[graph.g]
+    finite = np.isfinite(graph.cost)
+    positive = finite & (graph.cost > 0)
+    typical = float(np.median(graph.cost[positive])) if positive.any() else 1.0
+    scaled = np.minimum(np.round(_UNITS * np.where(finite, graph.cost, 0.0) / typical), 1e6)
+    capacity = np.where(finite, 1 + scaled.astype(np.int64), _NEVER)
+    S, T = k, k + 1
+    big = int(min(capacity.sum() + 1, 1 << 30))
+    rows = np.concatenate([f, g, np.full(source.sum(), S), index[sink]])
+    cols = np.concatenate([g, f, index[source], np.full(sink.sum(), T)])
+    caps = np.concatenate([capacity, capacity, np.full(source.sum(), big), np.full(sink.sum(), big)])
+    flow_graph = sp.csr_matrix((caps.astype(np.int32), (rows, cols)), shape=(k + 2, k + 2))
+    flow = csgraph.maximum_flow(flow_graph, S, T).flow
+    residual = (flow_graph - flow).tocsr()
+    residual.data = (residual.data > 0).astype(np.int8)
+    residual.eliminate_zeros()
+    reach = csgraph.breadth_first_order(residual, S, directed=True, return_predecessors=False)
+    side = np.zeros(k + 2, dtype=bool)
+    side[reach] = True
+    return node & side[index]
