@@ -116,6 +116,7 @@ def unwrap_scene(args) -> dict:
                 world_scale=args.world_scale,
                 correct_aspect=not args.no_aspect,
                 charts=not args.no_charts,
+                chart_disks=args.chart_disks,
                 max_stretch=args.max_stretch,
                 mark_seams=args.mark_seams,
                 **({} if args.extra_cuts is None else {"extra_cuts": args.extra_cuts}),
@@ -146,6 +147,7 @@ def parse(argv):
     ap.add_argument("--world-scale", action="store_true", help="one UV unit per world unit")
     ap.add_argument("--no-aspect", action="store_true", help="ignore image aspect ratios")
     ap.add_argument("--no-charts", action="store_true", help="cut islands open only as far as they must be")
+    ap.add_argument("--chart-disks", action="store_true", help="also chart islands your seams bound")
     ap.add_argument("--max-stretch", type=float, default=1.18, help="the charts' stretch budget (default 1.18)")
     ap.add_argument("--mark-seams", action="store_true", help="mark the cuts made as seams")
     ap.add_argument(

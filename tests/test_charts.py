@@ -57,6 +57,21 @@ def test_a_lower_budget_costs_more_charts_and_stretches_less():
     assert ("still stretched beyond 1.1" in note) == (energy[1] > energy_budget(1.1))
 
 
+def test_an_artists_islands_stay_as_marked():
+    V, F, seams = ex.load_obj(SPOT)  # 13 islands, some beyond the budget (up to 5.4)
+    r = parametrize(V, F, seams, **CHARTS)
+    assert r.n_islands == 13 and not [w for w in r.warnings if w.kind == "charts"]
+
+
+def test_a_nearly_closed_disk_is_charted():
+    # a sphere with one small hole is a disk, but holds nearly a sphere's curvature
+    V, F = ex.sphere(4)
+    F = F[~(F == 0).any(axis=1)]  # the faces around one vertex removed: a hole
+    r = parametrize(V, F, **CHARTS)
+    assert r.n_islands > 1 and r.flipped.sum() == 0
+    assert "curved like a closed part" in next(w.text for w in r.warnings if w.kind == "charts")
+
+
 def test_a_developable_island_within_budget_stays_whole():
     V, F, _ = ex.s_surface(30, 8)
     r = parametrize(V, F, **CHARTS)
@@ -64,12 +79,13 @@ def test_a_developable_island_within_budget_stays_whole():
     assert not [w for w in r.warnings if w.kind == "charts"]
 
 
-def test_a_disk_stretched_beyond_budget_is_split():
+def test_a_disk_stretched_beyond_budget_is_split_on_request_only():
     V, F = ex.peaks(41)  # refined, its best layout is at symmetric Dirichlet ~4.5
-    whole = parametrize(V, F, refine=1000)
+    whole = parametrize(V, F, **CHARTS)  # a disk, little curvature: the artist's to cut
+    assert whole.n_islands == 1 and not [w for w in whole.warnings if w.kind == "charts"]
     energy = metrics.per_island(V, F, whole.corner_uv, whole.face_island).mean_symmetric_dirichlet
     assert energy > energy_budget(1.18)
-    r = parametrize(V, F, **CHARTS)
+    r = parametrize(V, F, chart_disks=True, **CHARTS)
     assert r.n_islands > 1
     assert metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet <= energy_budget(1.18)
     assert "stretched beyond 1.18" in next(w.text for w in r.warnings if w.kind == "charts")

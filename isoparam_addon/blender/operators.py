@@ -58,10 +58,17 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
     )
     charts: BoolProperty(
         name="Charts",
-        description="Cut islands that are closed, or curved too much to flatten, into a few charts: seams "
-        "along short paths and creases where the layout would stretch more than Max Stretch. Islands "
-        "with pins stay whole. Off: islands are only cut open as far as they must be",
+        description="Cut islands that are closed (or have holes or handles), and unseamed parts curved like "
+        "closed ones, into a few charts: seams along short paths and creases, until no more stretched than "
+        "Max Stretch. Islands your seams bound, and islands with pins, stay whole. Off: islands are only "
+        "cut open as far as they must be",
         default=True,
+    )
+    chart_disks: BoolProperty(
+        name="Chart Marked Islands",
+        description="With Charts: also cut islands that your seams (or the mesh's borders) already bound, "
+        "when they stretch beyond Max Stretch",
+        default=False,
     )
     max_stretch: FloatProperty(
         name="Max Stretch",

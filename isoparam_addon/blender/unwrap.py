@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import bpy
 import numpy as np
@@ -19,7 +19,7 @@ from ..solver.placement import FAR, place_in_uv_space
 from ..solver.report import solver_names
 from . import mesh_io
 
-__all__ = ["STRETCH_ATTRIBUTE", "Options", "run", "show_stretch"]
+__all__ = ["STRETCH_ATTRIBUTE", "Options", "RunTimings", "last_run", "run", "show_stretch"]
 
 STRETCH_ATTRIBUTE = "isoparam_stretch"  # the face colour attribute Show Stretch writes
 
@@ -36,6 +36,7 @@ class Options:
     world_scale: bool = False
     refine: int = 1000
     charts: bool = True
+    chart_disks: bool = False
     max_stretch: float = 1.18
     mark_seams: bool = False
     extra_cuts: int = 4
@@ -213,6 +214,23 @@ def _object_mode(context):
 
 
 @dataclass
+class RunTimings:
+    """Where the last :func:`run` spent its seconds (for the benchmarks): reading the meshes,
+    the solver (its own :class:`~isoparam_addon.solver.Timings` per mesh), writing the UVs
+    (and seams, stretch colours), Blender's pack, and all of it (mode switches included)."""
+
+    read: float = 0.0
+    solve: float = 0.0
+    write: float = 0.0
+    pack: float = 0.0
+    total: float = 0.0
+    solver: list = field(default_factory=list)
+
+
+last_run = RunTimings()
+
+
+@dataclass
 class _Solved:
     obj: bpy.types.Object
     sel: mesh_io.Selection
@@ -229,6 +247,8 @@ class _Solved:
 def run(op, context, opts: Options) -> set:
     """Unwrap the selected faces of every mesh in edit mode. Returns the operator result."""
     t0 = time.perf_counter()
+    global last_run
+    last_run = RunTimings()
     wm = context.window_manager
     space = getattr(context, "space_data", None)
     uv_editor = space is not None and space.type == "IMAGE_EDITOR"
@@ -241,6 +261,7 @@ def run(op, context, opts: Options) -> set:
             solved = _solve_all(op, objects, opts, wm, uv_editor and not sync)
             if solved is None:
                 return {"CANCELLED"}
+            t_write = time.perf_counter()
             for s in solved:  # one write per mesh
                 _write(s)
                 if opts.mark_seams:
@@ -255,6 +276,7 @@ def run(op, context, opts: Options) -> set:
             pack = opts.pack and not far and (sum(s.n_islands for s in solved) > 1 or held)
             # what the pack changes besides the UVs, kept while the mesh arrays are at hand
             kept = _prepare_pack(solved, objects, uv_editor and not sync, not sync and _SYNC_RESELECTS) if pack else []
+            last_run.write = time.perf_counter() - t_write
             wm.progress_update(2 * len(objects) + 1)
     finally:
         wm.progress_end()
@@ -265,8 +287,11 @@ def run(op, context, opts: Options) -> set:
             "or a kept corner)",
         )
     if pack:
+        t_pack = time.perf_counter()
         _pack(context, solved, opts, held or any(k.pins_set for k in kept), kept)
-    _report(op, solved, time.perf_counter() - t0)
+        last_run.pack = time.perf_counter() - t_pack
+    last_run.total = time.perf_counter() - t0
+    _report(op, solved, last_run.total)
     return {"FINISHED"}
 
 
@@ -377,6 +402,7 @@ def _solve(sel: mesh_io.Selection, opts: Options, strict: bool = False):
         pins=(hold, old) if hold.any() else None,
         inner_edges=sel.diagonals,
         charts=opts.charts,
+        chart_disks=opts.chart_disks,
         max_stretch=opts.max_stretch,
         extra_cuts=opts.extra_cuts,
         split_overlaps=opts.split_overlaps,
@@ -413,7 +439,9 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
     """Read and solve every mesh; None (after an ERROR report) if any cannot be solved."""
     selections = []
     for k, ob in enumerate(objects):  # one read per mesh in edit mode
+        t = time.perf_counter()
         sel = mesh_io.read_selection(ob, world_space=opts.world_scale, uv_selection_locks=uv_selection_locks)
+        last_run.read += time.perf_counter() - t
         wm.progress_update(k)
         if not sel.empty:
             selections.append((ob, sel))
@@ -422,6 +450,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
         return None
     solved = []
     for k, (ob, sel) in enumerate(selections):
+        t = time.perf_counter()
         try:
             sel, res, locked, old, overlap = _solve_as_blender_would(sel, opts)
         except InvalidMeshError as err:
@@ -431,6 +460,8 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             why = f"{type(err).__name__}: {err}"
             op.report({"ERROR"}, f"Isometric Unwrap failed on '{sel.name}' ({why}). Nothing was changed")
             return None
+        last_run.solve += time.perf_counter() - t
+        last_run.solver.append(res.timings)
         if not np.isfinite(res.corner_uv).all():
             op.report({"ERROR"}, f"Isometric Unwrap gave non-finite UVs on '{sel.name}'. Nothing was changed")
             return None

@@ -1,5 +1,5 @@
-"""Beyond the paper: charts. An island that is not a disk, or whose layout stretches more
-than a budget, is cut into a few charts, each laid out near-isometrically.
+"""Beyond the paper: charts. An island that is not a disk, or is curved like a closed part,
+is cut into a few charts, each laid out near-isometrically within a stretch budget.
 
 A closed surface opened along its shortest cut (:mod:`.cutgraph`) flattens with regions
 squeezed and others blown up: Suzanne, spot or a character is far from isometric as one
@@ -31,7 +31,10 @@ The budget is given as a stretch factor ``s``: an island may be as distorted (sy
 Dirichlet energy per area, each chart at its best scale) as one stretched uniformly by
 ``s`` (:func:`energy_budget`), which is the energy the refinement lowers.
 
-Islands with pins are left as they are (their layout is the pins' to shape).
+Islands that are disks bounded by the artist's seams, and open parts that hold less
+curvature, are the artist's to cut: they are charted only on request
+(``Options.chart_disks``). Islands with pins are left as they are (their layout is the
+pins' to shape).
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ from scipy.sparse import csgraph
 
 from . import metrics
 from .geometry import corner_angles, corner_signed_areas, face_areas
+from .mesh import HalfEdges, edge_mask
 from .mincut import FaceGraph, face_graph, minimum_cut, source_side
 from .options import Options, Problem
 from .pipeline import TOPOLOGY_WARNINGS, solve, topology_warnings
@@ -73,22 +77,24 @@ class _Owners:
 
     face: np.ndarray  # (m,) the island of each face
     charted: np.ndarray  # (k,) islands that may be cut into charts (no pins)
+    curved: np.ndarray  # (n,) bool: islands curved like a closed part (cut into cells first)
     topo: Topology
 
 
 def with_charts(problem: Problem, options: Options) -> Parametrization:
-    """:func:`.pipeline.solve`, with every island that is not a disk, or that stretches
-    more than ``options.max_stretch`` allows (:func:`energy_budget`), cut into charts;
-    then, with ``options.split_overlaps``, charts that overlap themselves cut apart."""
+    """:func:`.pipeline.solve`, with every island that is not a disk or is curved like a
+    closed part (any island, with ``options.chart_disks``) cut into charts as distorted as
+    ``options.max_stretch`` allows (:func:`energy_budget`) at most; with
+    ``options.split_overlaps``, charts that overlap themselves are cut apart."""
     t0 = time.perf_counter()
     V, F, topo = build_topology(
         problem.vertices, problem.faces, problem.seams, options.split_nonmanifold, problem.inner_edges
     )
-    owners = _owners(problem, topo)
     seams = pairs(problem.seams)
-    graph = face_graph(V, F, owners.face, seams, problem.inner_edges)
-    curved = owners.charted[_curvature(V, F, owners.face, graph, topo.n_islands)[owners.charted] > _CURVED]
-    cells = _cell_boundaries(graph, owners.face, curved)
+    graph = face_graph(V, F, topo.face_island, seams, problem.inner_edges)
+    curvature = _curvature(V, F, topo.face_island, graph, topo.n_islands)
+    owners = _owners(problem, topo, curvature, options.chart_disks)
+    cells = _cell_boundaries(graph, owners.face, owners.charted[owners.curved[owners.charted]])
     problem = replace(problem, vertices=V, faces=F)
     result = solve(replace(problem, seams=np.vstack([seams, cells])), options)
     first_solve = result.timings.total
@@ -119,13 +125,24 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     return result
 
 
-def _owners(problem: Problem, topo: Topology) -> _Owners:
-    """Which islands may be cut into charts: those without a pinned corner."""
-    pinned = np.zeros(topo.n_islands, dtype=bool)
+def _owners(problem: Problem, topo: Topology, curvature: np.ndarray, disks: bool) -> _Owners:
+    """Which islands may be cut into charts, those without a pinned corner that are: not
+    disks; or curved like a closed part (more than ``_CURVED``) with no seam of the
+    caller's on them (seams there are the artist's cut); or, with ``disks``, any."""
+    n = topo.n_islands
+    pinned = np.zeros(n, dtype=bool)
     if problem.pins is not None:
-        mask = np.asarray(problem.pins[0], dtype=bool)
-        pinned[topo.face_island[mask.any(axis=1)]] = True
-    return _Owners(topo.face_island, np.flatnonzero(~pinned), topo)
+        pinned[topo.face_island[np.asarray(problem.pins[0], dtype=bool).any(axis=1)]] = True
+    marked = np.zeros(n, dtype=bool)
+    if problem.seams is not None and len(pairs(problem.seams)):
+        F = np.asarray(problem.faces)
+        he = HalfEdges(F, len(np.asarray(problem.vertices)))
+        on_seam = edge_mask(he, len(np.asarray(problem.vertices)), problem.seams)[he.edge]
+        marked[topo.face_island[np.flatnonzero(on_seam) // 3]] = True
+    curved = curvature > _CURVED
+    wanted = (curved & ~marked) | disks
+    wanted[topo.cut_islands] = True
+    return _Owners(topo.face_island, np.flatnonzero(wanted & ~pinned), curved, topo)
 
 
 def _curvature(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, graph: FaceGraph, n: int) -> np.ndarray:
@@ -284,9 +301,11 @@ def _charted(result: Parametrization, owners: _Owners, budget: float) -> list[So
     total = np.bincount(owner, area, minlength=len(pieces))
     mean = np.bincount(owner, energy * area, minlength=len(pieces)) / np.maximum(total, 1e-300)
     first = result.face_island[_first_faces(owners.face)[cut[0]]]
+    not_disk = np.isin(cut, owners.topo.cut_islands)
     return charted(
         islands=len(cut),
-        not_disks=int(np.isin(cut, owners.topo.cut_islands).sum()),
+        not_disks=int(not_disk.sum()),
+        curved=int((owners.curved[cut] & ~not_disk).sum()),
         charts=int(pieces[cut].sum()),
         energy=float((mean[cut] * total[cut]).sum() / max(total[cut].sum(), 1e-300)),
         over=int((mean[cut] > energy_budget(budget)).sum()),

@@ -309,16 +309,21 @@ def lowered(added: int, before: np.ndarray, score: np.ndarray) -> list[SolverWar
     return [_warning("extra_cuts", added, "", None, template)]
 
 
-def charted(islands: int, not_disks: int, charts: int, energy: float, over: int, budget: float, first: int):
+def charted(
+    islands: int, not_disks: int, curved: int, charts: int, energy: float, over: int, budget: float, first: int
+):
     """The note that says what was cut into charts (:mod:`.charts`): ``islands`` cut into
-    ``charts`` in all, ``not_disks`` of them because they were not disks (the others
-    because they stretched more than ``budget``), their charts' mean symmetric Dirichlet
-    ``energy`` per area, and how many are still ``over`` the budget."""
+    ``charts`` in all, ``not_disks`` of them because they were not disks, ``curved`` disks
+    because they were curved like closed parts (the others because they stretched more
+    than ``budget``), their charts' mean symmetric Dirichlet ``energy`` per area, and how
+    many are still ``over`` the budget."""
     why = []
     if not_disks:
         why.append(f"{not_disks} not {'a disk' if not_disks == 1 else 'disks'}")
-    if islands - not_disks:
-        why.append(f"{islands - not_disks} stretched beyond {budget:.3g}")
+    if curved:
+        why.append(f"{curved} curved like a closed part")
+    if islands - not_disks - curved:
+        why.append(f"{islands - not_disks - curved} stretched beyond {budget:.3g}")
     template = (
         f"{counted(islands, 'island was', 'islands were')} cut into {charts} charts ({', '.join(why)}; "
         f"first: {{first}}), distortion {energy:.3f} (4 is isometric)"
