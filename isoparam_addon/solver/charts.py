@@ -79,6 +79,7 @@ class _Owners:
     charted: np.ndarray  # (k,) islands that may be cut into charts (no pins)
     curved: np.ndarray  # (n,) bool: islands curved like a closed part (cut into cells first)
     topo: Topology
+    graph: FaceGraph | None  # the faces' adjacency within islands (None when none is charted)
 
 
 def with_charts(problem: Problem, options: Options) -> Parametrization:
@@ -87,16 +88,28 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     ``options.max_stretch`` allows (:func:`energy_budget`) at most; with
     ``options.split_overlaps``, charts that overlap themselves are cut apart."""
     t0 = time.perf_counter()
-    V, F, topo = build_topology(
-        problem.vertices, problem.faces, problem.seams, options.split_nonmanifold, problem.inner_edges
+    built = build_topology(
+        problem.vertices,
+        problem.faces,
+        problem.seams,
+        options.split_nonmanifold,
+        problem.inner_edges,
+        problem.pinned_vertices(),
     )
+    V, F, topo = built
     seams = pairs(problem.seams)
-    graph = face_graph(V, F, topo.face_island, seams, problem.inner_edges)
-    curvature = _curvature(V, F, topo.face_island, graph, topo.n_islands)
-    owners = _owners(problem, topo, curvature, options.chart_disks)
-    cells = _cell_boundaries(graph, owners.face, owners.charted[owners.curved[owners.charted]])
     problem = replace(problem, vertices=V, faces=F)
-    result = solve(replace(problem, seams=np.vstack([seams, cells])), options)
+    owners = _owners(problem, V, F, topo, options.chart_disks)
+    if owners.graph is None:  # nothing to chart: the solve as without charts, topology reused
+        result = solve(problem, options, built)
+        if options.split_overlaps and (result.islands.crossings > 0).any():
+            result = without_overlaps(result, problem, options)
+        return result
+    cells = _cell_boundaries(owners.graph, owners.face, owners.charted[owners.curved[owners.charted]])
+    if len(cells):
+        result = solve(replace(problem, seams=np.vstack([seams, cells])), options)
+    else:
+        result = solve(problem, options, built)
     first_solve = result.timings.total
     result.cut_edges = np.vstack([cells, result.cut_edges])
     rounds = 0
@@ -125,7 +138,7 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     return result
 
 
-def _owners(problem: Problem, topo: Topology, curvature: np.ndarray, disks: bool) -> _Owners:
+def _owners(problem: Problem, V: np.ndarray, F: np.ndarray, topo: Topology, disks: bool) -> _Owners:
     """Which islands may be cut into charts, those without a pinned corner that are: not
     disks; or curved like a closed part (more than ``_CURVED``) with no seam of the
     caller's on them (seams there are the artist's cut); or, with ``disks``, any."""
@@ -134,15 +147,19 @@ def _owners(problem: Problem, topo: Topology, curvature: np.ndarray, disks: bool
     if problem.pins is not None:
         pinned[topo.face_island[np.asarray(problem.pins[0], dtype=bool).any(axis=1)]] = True
     marked = np.zeros(n, dtype=bool)
-    if problem.seams is not None and len(pairs(problem.seams)):
-        F = np.asarray(problem.faces)
-        he = HalfEdges(F, len(np.asarray(problem.vertices)))
-        on_seam = edge_mask(he, len(np.asarray(problem.vertices)), problem.seams)[he.edge]
-        marked[topo.face_island[np.flatnonzero(on_seam) // 3]] = True
-    curved = curvature > _CURVED
-    wanted = (curved & ~marked) | disks
-    wanted[topo.cut_islands] = True
-    return _Owners(topo.face_island, np.flatnonzero(wanted & ~pinned), curved, topo)
+    if len(pairs(problem.seams)):
+        he = HalfEdges(F, len(V))
+        marked[topo.face_island[np.flatnonzero(edge_mask(he, len(V), problem.seams)[he.edge]) // 3]] = True
+    maybe = ~pinned & (~marked | disks)  # (islands that are not disks are charted whatever their curvature)
+    maybe[topo.cut_islands] = ~pinned[topo.cut_islands]
+    if not maybe.any():
+        return _Owners(topo.face_island, np.zeros(0, dtype=np.int64), np.zeros(n, dtype=bool), topo, None)
+    graph = face_graph(V, F, topo.face_island, problem.seams, problem.inner_edges)
+    curved = _curvature(V, F, topo.face_island, graph, n) > _CURVED
+    wanted = maybe & (curved | disks)
+    wanted[topo.cut_islands] = maybe[topo.cut_islands]
+    charted = np.flatnonzero(wanted)
+    return _Owners(topo.face_island, charted, curved, topo, graph if len(charted) else None)
 
 
 def _curvature(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, graph: FaceGraph, n: int) -> np.ndarray:

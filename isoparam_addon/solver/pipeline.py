@@ -50,11 +50,13 @@ class _Clock:
         self.last = now
 
 
-def solve(problem: Problem, options: Options) -> Parametrization:
-    """Parametrize ``problem`` with ``options`` (see :func:`.parametrize`)."""
+def solve(problem: Problem, options: Options, built: tuple | None = None) -> Parametrization:
+    """Parametrize ``problem`` with ``options`` (see :func:`.parametrize`); ``built``, if
+    given, is what :func:`.topology.build_topology` returned for it (with the problem's
+    pinned vertices to avoid), not built again."""
     clock = _Clock()
     # a closed island's cut loops all meet at its root: never a pinned vertex if it can be helped
-    V, F, topo = build_topology(
+    V, F, topo = built or build_topology(
         problem.vertices,
         problem.faces,
         problem.seams,
