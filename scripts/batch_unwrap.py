@@ -1,30 +1,48 @@
 """Unwrap many files with Isometric Unwrap, headless.
 
-Inside Blender, on the open file:
-
-    blender --background scene.blend --python scripts/batch_unwrap.py -- [--save | -o out.blend] [options]
-
 With Blender as a Python module (``pip install bpy``), on any number of files:
 
     python scripts/batch_unwrap.py a.obj b.ply c.glb d.blend -o out_dir/ [options]
-    python scripts/batch_unwrap.py in.obj -o out.obj
+    python scripts/batch_unwrap.py in.obj -o out.obj --max-stretch 1.1 --json > report.jsonl
+    python scripts/batch_unwrap.py models/*.blend --in-place --jobs 2
+
+Inside Blender, on the open file (the extension installed):
+
+    blender --background scene.blend --python scripts/batch_unwrap.py -- --in-place [options]
 
 Formats in and out: .obj, .ply, .gltf/.glb, .blend (the output format follows the output
-name, or ``--format``). Every mesh object is unwrapped on its own (``--together`` packs
-all of a file's meshes into one UV square). A line per file tells what happened; the
-exit status is 1 if any file failed, 2 for bad arguments.
+name, or ``--format`` when ``-o`` is a folder). Every mesh object is unwrapped on its own
+(``--together`` packs a file's meshes into one UV square), into the active UV map or the
+one ``--uv-map`` names; a warning says when that map held UVs already. There must be
+somewhere to write: ``-o`` (a file for one input, a folder for several) or ``--in-place``
+(each input overwritten; a .blend keeps Blender's ``.blend1`` backup of the original).
+
+Every option of the operator's redo panel is a flag (``--help`` lists them). Per file, a
+line says what happened: islands, stretch (worst and mean), flipped faces, islands that
+overlap themselves, the operator's warnings and the time; ``--json`` prints these as JSON
+lines on stdout and sends Blender's log to stderr. Exit status: 0 when every file was
+unwrapped (and, with ``--fail-stretch X``, none has a mean stretch above X), 1 otherwise,
+2 for bad arguments or a missing extension.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 FORMATS = (".obj", ".ply", ".gltf", ".glb", ".blend")
+_OWN = ("pack", "pack_shape", "margin", "correct_aspect", "world_scale")  # listed first in --help
+
+
+class UsageError(Exception):
+    """Bad arguments or set-up: the message, and exit status 2."""
 
 
 def _ensure_addon():
@@ -41,9 +59,15 @@ def _ensure_addon():
             if hasattr(bpy.types, "UV_OT_isometric_unwrap"):
                 return
     sys.path.insert(0, str(ROOT))
-    import isoparam_addon
+    try:
+        import isoparam_addon
 
-    isoparam_addon.register()
+        isoparam_addon.register()
+    except ImportError as exc:
+        raise UsageError(
+            f"the Isometric Unwrap extension is not installed in this Blender ({exc}): build its zip with "
+            "'bash scripts/build.sh' and install it (Edit > Preferences > Get Extensions > Install from Disk)"
+        ) from None
 
 
 def _ensure_gltf():
@@ -72,13 +96,18 @@ def load(path: Path) -> None:
         raise ValueError(f"cannot read {ext} files (use one of {', '.join(FORMATS)})")
 
 
-def save(path: Path) -> None:
+def save(path: Path, same_file: bool) -> None:
+    """Write the scene to ``path``; ``same_file``: it is the open .blend (one save, so
+    Blender's ``.blend1`` keeps the file as it was)."""
     import bpy
 
     path.parent.mkdir(parents=True, exist_ok=True)
     ext = path.suffix.lower()
     if ext == ".blend":
-        bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+        if same_file:
+            bpy.ops.wm.save_mainfile()
+        else:
+            bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
     elif ext == ".obj":
         bpy.ops.wm.obj_export(filepath=str(path), export_uv=True, export_materials=False)
     elif ext == ".ply":
@@ -90,9 +119,64 @@ def save(path: Path) -> None:
         raise ValueError(f"cannot write {ext} files (use one of {', '.join(FORMATS)})")
 
 
-def unwrap_scene(args) -> dict:
-    """Unwrap the mesh objects of the current scene; returns a small report."""
+# ---------------------------------------------------------------------------- one file
+
+
+def _uv_map(me, name: str | None) -> str | None:
+    """Make the UV map to write active (``name``, made if missing; else the active one);
+    returns a warning if it holds UVs already."""
+    import numpy as np
+
+    layers = me.uv_layers
+    if name is not None and name not in layers:
+        layers.active = layers.new(name=name)  # (a copy of the active map's UVs, all replaced)
+        return None
+    if name is not None:
+        layers.active = layers[name]
+    if layers.active is None:
+        return None  # the operator makes one
+    uv = np.empty(2 * len(me.loops), dtype=np.float32)
+    layers.active.uv.foreach_get("vector", uv)
+    if len(uv) and np.ptp(uv) > 0:
+        return f"'{me.name}': replaced the UVs of its UV map '{layers.active.name}'"
+    return None
+
+
+def _measure(meshes) -> dict:
+    """Islands, stretch (worst, mean), flipped faces and self-overlapping islands of the
+    active UV maps of ``meshes`` (object mode)."""
+    import numpy as np
+
+    from isoparam_addon.blender import mesh_io
+    from isoparam_addon.solver import metrics
+
+    islands = flips = overlapping = 0
+    parts = []
+    for ob in meshes:
+        sel = mesh_io.read_selection(ob, world_space=False, uv_selection_locks=False, every_face=True)
+        cuv = sel.uv[sel.tri_loops].astype(np.float64)
+        label = metrics.uv_islands(sel.F, cuv)
+        per = metrics.per_island(sel.V, sel.F, cuv, label)
+        islands += per.n_islands
+        flips += int(per.flipped.sum())
+        overlapping += metrics.self_overlaps(sel.V, sel.F, cuv, label).islands
+        parts.append(metrics.face_stretch(sel.V, sel.F, cuv)[1])
+    worst, mean, _ = metrics.combine_stretch(parts)
+    return dict(
+        islands=islands,
+        stretch_worst=round(worst, 4),
+        stretch_mean=round(mean, 4),
+        flipped=flips,
+        overlapping=overlapping,
+    )
+
+
+def unwrap_scene(args, operator: dict) -> dict:
+    """Unwrap the mesh objects of the current scene with the operator's ``operator``
+    options; returns the file's report (without its status)."""
     import bpy
+
+    from isoparam_addon.blender import unwrap
 
     meshes = [ob for ob in bpy.context.scene.objects if ob.type == "MESH" and len(ob.data.polygons)]
     if args.objects:
@@ -101,6 +185,8 @@ def unwrap_scene(args) -> dict:
         raise RuntimeError("no mesh objects to unwrap")
     if bpy.context.object is not None and bpy.context.object.mode != "OBJECT":
         bpy.ops.object.mode_set(mode="OBJECT")
+    warnings = [w for w in (_uv_map(ob.data, args.uv_map) for ob in meshes) if w]
+    notes = []
     groups = [meshes] if args.together else [[ob] for ob in meshes]
     for group in groups:  # one operator call per object (or one for all)
         for ob in bpy.context.scene.objects:
@@ -110,26 +196,72 @@ def unwrap_scene(args) -> dict:
         bpy.ops.mesh.reveal()
         bpy.ops.mesh.select_all(action="SELECT")
         try:
-            bpy.ops.uv.isometric_unwrap(
-                pack=not args.in_place,
-                margin=args.margin,
-                world_scale=args.world_scale,
-                correct_aspect=not args.no_aspect,
-                charts=not args.no_charts,
-                chart_disks=args.chart_disks,
-                max_stretch=args.max_stretch,
-                mark_seams=args.mark_seams,
-                **({} if args.extra_cuts is None else {"extra_cuts": args.extra_cuts}),
-            )
+            bpy.ops.uv.isometric_unwrap(**operator)
         finally:
             bpy.ops.object.mode_set(mode="OBJECT")
-    return {"objects": len(meshes), "faces": sum(len(ob.data.polygons) for ob in meshes)}
+        notes += unwrap.last_run.notes
+        warnings += unwrap.last_run.warnings
+    return dict(
+        objects=len(meshes),
+        faces=sum(len(ob.data.polygons) for ob in meshes),
+        **_measure(meshes),
+        notes=notes,
+        warnings=warnings,
+    )
 
 
-def _progress(i: int, n: int, name: str, status: str) -> None:
-    width = 24
-    done = int(width * i / max(n, 1))
-    print(f"\r[{'#' * done}{'.' * (width - done)}] {i}/{n} {name}: {status}", file=sys.stderr, flush=True)
+def run_file(args, operator: dict, path: Path | None, target: Path | None) -> dict:
+    """Load, unwrap and save one file (``path`` None: the open .blend); its report."""
+    import bpy
+
+    t0 = time.perf_counter()
+    entry: dict = {"file": str(path or bpy.data.filepath)}
+    try:
+        if path is not None:
+            load(path)
+        entry.update(unwrap_scene(args, operator))
+        if target is not None:
+            same = target.suffix.lower() == ".blend" and Path(bpy.data.filepath or "").resolve() == target.resolve()
+            save(target, same)
+            entry["output"] = str(target)
+        entry["status"] = "ok"
+        if args.fail_stretch is not None and entry["stretch_mean"] > args.fail_stretch:
+            entry["status"] = "too stretched"
+    except Exception as exc:  # report and go on with the next file
+        entry.update(status="failed", error=(str(exc).strip().splitlines() or [type(exc).__name__])[-1][:500])
+    entry["seconds"] = round(time.perf_counter() - t0, 3)
+    return entry
+
+
+# ---------------------------------------------------------------------------- arguments
+
+
+def _operator_flags(ap: argparse.ArgumentParser) -> list[str]:
+    """A flag per property of the operator (read from its RNA, so none is missing); their
+    names (the operator's keywords)."""
+    import bpy
+
+    group = ap.add_argument_group("unwrap options (the operator's redo panel; default: the operator's)")
+    props = [p for p in bpy.ops.uv.isometric_unwrap.get_rna_type().properties if p.identifier != "rna_type"]
+    props.sort(key=lambda p: (p.identifier not in _OWN, _OWN.index(p.identifier) if p.identifier in _OWN else 0))
+    names = []
+    for p in props:
+        flag = "--" + p.identifier.replace("_", "-")
+        default = f"{p.default:.4g}" if p.type == "FLOAT" else p.default
+        text = f"{p.name}: {p.description} (default: {default})"
+        text = text.replace("%", "%%")
+        if p.type == "BOOLEAN":
+            group.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, help=text)
+        elif p.type == "ENUM":
+            group.add_argument(flag, choices=[item.identifier for item in p.enum_items], default=None, help=text)
+        elif p.type == "INT":
+            group.add_argument(flag, type=int, default=None, help=text)
+        elif p.type == "FLOAT":
+            group.add_argument(flag, type=float, default=None, help=text)
+        else:  # pragma: no cover - the operator has no other kinds of properties
+            continue
+        names.append(p.identifier)
+    return names
 
 
 def parse(argv):
@@ -139,82 +271,178 @@ def parse(argv):
     ap.add_argument("inputs", nargs="*", type=Path, help="files to unwrap (none: the open .blend, inside Blender)")
     ap.add_argument("-o", "--out", type=Path, help="output file (one input) or folder (several inputs)")
     ap.add_argument("--format", choices=[f[1:] for f in FORMATS], help="output format when --out is a folder")
-    ap.add_argument("--save", action="store_true", help="inside Blender: save the open file in place")
+    ap.add_argument("--in-place", action="store_true", help="overwrite each input (a .blend keeps its .blend1 backup)")
+    ap.add_argument("--save", action="store_true", help=argparse.SUPPRESS)  # the former name of --in-place
     ap.add_argument("--objects", nargs="+", help="only these objects")
     ap.add_argument("--together", action="store_true", help="pack all meshes of a file into one UV square")
-    ap.add_argument("--in-place", action="store_true", help="keep every island where its old UVs were")
-    ap.add_argument("--margin", type=float, default=0.001)
-    ap.add_argument("--world-scale", action="store_true", help="one UV unit per world unit")
-    ap.add_argument("--no-aspect", action="store_true", help="ignore image aspect ratios")
-    ap.add_argument("--no-charts", action="store_true", help="cut islands open only as far as they must be")
-    ap.add_argument("--chart-disks", action="store_true", help="also chart islands your seams bound")
-    ap.add_argument("--max-stretch", type=float, default=1.18, help="the charts' stretch budget (default 1.18)")
-    ap.add_argument("--mark-seams", action="store_true", help="mark the cuts made as seams")
-    ap.add_argument(
-        "--extra-cuts",
-        type=int,
-        help="with --no-charts: more cuts for islands cut open automatically (default: the operator's, 4)",
-    )
-    ap.add_argument("--report", type=Path, help="write the per-file report as JSON")
-    return ap.parse_args(argv)
+    ap.add_argument("--uv-map", help="the UV map to write (made if missing; default: the active one)")
+    ap.add_argument("--fail-stretch", type=float, help="exit 1 when a file's mean stretch is above this")
+    ap.add_argument("--json", action="store_true", help="JSON lines on stdout; Blender's log on stderr")
+    ap.add_argument("--jobs", type=int, default=1, help="files unwrapped in parallel processes (bpy module only)")
+    ap.add_argument("--report", type=Path, help="also write every file's report into one JSON file")
+    names = _operator_flags(ap)
+    args = ap.parse_args(argv)
+    args.in_place |= args.save
+    operator = {k: getattr(args, k) for k in names if getattr(args, k) is not None}
+    return args, operator
 
 
-def output_for(args, path: Path | None, many: bool) -> Path | None:
+def outputs(args, paths: list[Path | None]) -> list[Path | None]:
+    """Where each input goes; raises :class:`UsageError` when there is nowhere, or no single file
+    can take several inputs."""
+    import bpy
+
+    if args.out is not None and args.in_place:
+        raise UsageError("give -o or --in-place, not both")
     if args.out is None:
-        return None
-    if not many and args.out.suffix.lower() in FORMATS:
-        return args.out
-    fmt = "." + (args.format or (path.suffix.lstrip(".") if path else "blend"))
-    stem = path.stem if path else "scene"
-    return args.out / f"{stem}{fmt}"
+        if not args.in_place:
+            raise UsageError(
+                "nothing would be written: give -o (a file or folder), or --in-place to overwrite the inputs"
+            )
+        return [p if p is not None else Path(bpy.data.filepath) for p in paths]
+    folder = len(paths) > 1 or args.out.suffix.lower() not in FORMATS or args.out.is_dir()
+    if len(paths) > 1 and args.out.suffix.lower() in FORMATS:
+        raise UsageError(f"-o {args.out} names one file, but there are {len(paths)} inputs: give a folder")
+    if not folder:
+        return [args.out]
+    out = []
+    for p in paths:
+        fmt = "." + (args.format or (p.suffix.lstrip(".") if p else "blend"))
+        out.append(args.out / f"{p.stem if p else Path(bpy.data.filepath).stem}{fmt}")
+    if len(set(out)) < len(out):
+        raise UsageError("two inputs would be written to the same output name: unwrap them into separate folders")
+    return out
+
+
+# ---------------------------------------------------------------------------- output
+
+
+class Progress:
+    """One line on stderr, redrawn in place: ``[####......] 3/8 name: status``."""
+
+    def __init__(self, total: int):
+        self.total, self.done = total, 0
+
+    def show(self, name: str, status: str) -> None:
+        width = 24
+        filled = int(width * self.done / max(self.total, 1))
+        line = f"[{'#' * filled}{'.' * (width - filled)}] {self.done}/{self.total} {name}: {status}"
+        sys.stderr.write("\r" + line[:119].ljust(119))
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        sys.stderr.write("\n")
+
+
+def describe(entry: dict) -> str:
+    """One line per file."""
+    name = Path(entry["file"]).name
+    if entry["status"] == "failed":
+        return f"{name}: FAILED: {entry['error']} ({entry['seconds']:.2f} s)"
+    text = (
+        f"{name}: {entry['status']}, {entry['islands']} islands, stretch worst {entry['stretch_worst']:.3g} "
+        f"mean {entry['stretch_mean']:.4g}, {entry['flipped']} flipped, {entry['overlapping']} overlapping, "
+        f"{entry['seconds']:.2f} s" + (f" -> {entry['output']}" if "output" in entry else "")
+    )
+    return text + "".join(f"\n    warning: {w}" for w in entry["warnings"])
+
+
+def _child_argv(argv: list[str], inputs: list[Path]) -> list[str]:
+    """``argv`` without the inputs and the options the parent handles (output, jobs,
+    report, JSON): what every per-file child process is given besides its file."""
+    own = {"-o", "--out", "--format", "--jobs", "--report"}  # (with a value)
+    flags = {"--json", "--in-place", "--save"}
+    names = {str(p) for p in inputs}
+    out, skip = [], False
+    for token in argv:
+        if skip:
+            skip = False
+        elif token in own:
+            skip = True
+        elif token in flags or token in names or any(token.startswith(f"{o}=") for o in own):
+            continue
+        else:
+            out.append(token)
+    return out
+
+
+def _in_children(argv, args, paths, targets, progress: Progress, emit) -> list[dict]:
+    """Each file in its own process, ``args.jobs`` at a time; reports in input order."""
+    rest = _child_argv(argv, paths)
+
+    def one(k: int) -> dict:
+        cmd = [sys.executable, __file__, str(paths[k]), "-o", str(targets[k]), "--json", *rest]
+        done = subprocess.run(cmd, capture_output=True, text=True)
+        lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
+        if lines:
+            return json.loads(lines[-1])
+        error = (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
+        return {"file": str(paths[k]), "status": "failed", "error": error[:500], "seconds": 0.0}
+
+    entries: list[dict | None] = [None] * len(paths)
+    with ThreadPoolExecutor(args.jobs) as pool:
+        futures = {pool.submit(one, k): k for k in range(len(paths))}
+        for future in futures:  # (input order; each waits for its own)
+            k = futures[future]
+            entries[k] = future.result()
+            progress.done += 1
+            progress.show(paths[k].name, entries[k]["status"])
+            emit(entries[k])
+    return [e for e in entries if e is not None]
 
 
 def main(argv=None) -> int:
     if argv is None:
         argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
-    args = parse(argv)
-    import bpy
+    real_stdout = sys.stdout
+    try:
+        if "--json" in argv:  # Blender's log (C printf and Python prints) to stderr, JSON to the real stdout
+            real_stdout = os.fdopen(os.dup(1), "w")
+            os.dup2(2, 1)
+            sys.stdout = sys.stderr
+        import bpy
 
-    _ensure_addon()
-    jobs: list[Path | None] = list(args.inputs)
-    if not jobs:
-        if not bpy.data.filepath:
-            print("batch_unwrap: no input files, and no .blend is open", file=sys.stderr)
-            return 2
-        jobs = [None]  # the file Blender opened
-    many = len(jobs) > 1
-    report, failed = [], 0
-    for i, path in enumerate(jobs):  # one file at a time
-        name = path.name if path else Path(bpy.data.filepath).name
-        t0 = time.perf_counter()
-        _progress(i, len(jobs), name, "unwrapping")
-        entry = {"file": str(path or bpy.data.filepath)}
-        try:
-            if path is not None:
-                load(path)
-            entry.update(unwrap_scene(args))
-            target = output_for(args, path, many)
-            if target is None and path is None and args.save:
-                bpy.ops.wm.save_mainfile()
-                target = Path(bpy.data.filepath)
-            if target is not None:
-                save(target)
-                entry["output"] = str(target)
-            entry.update(status="ok", seconds=round(time.perf_counter() - t0, 3))
-        except Exception as exc:  # report and go on with the next file
-            failed += 1
-            entry.update(
-                status="failed",
-                error=str(exc).strip().splitlines()[-1][:500],
-                seconds=round(time.perf_counter() - t0, 3),
-            )
-        report.append(entry)
-        _progress(i + 1, len(jobs), name, entry["status"])
-        print(json.dumps(entry))
+        _ensure_addon()
+        args, operator = parse(argv)
+        if args.jobs > 1 and bpy.app.binary_path:
+            raise UsageError("--jobs runs Blender as a Python module (pip install bpy), not inside a Blender binary")
+        paths: list[Path | None] = list(args.inputs)
+        if not paths:
+            if not bpy.data.filepath:
+                raise UsageError("no input files, and no .blend is open")
+            paths = [None]  # the file Blender opened
+        targets = outputs(args, paths)
+    except UsageError as exc:
+        print(f"batch_unwrap: {exc}", file=sys.stderr)
+        return 2
+
+    def emit(entry: dict) -> None:
+        if args.json:
+            real_stdout.write(json.dumps(entry) + "\n")
+            real_stdout.flush()
+        else:
+            sys.stderr.write("\r" + " " * 119 + "\r")
+            print(describe(entry), flush=True)
+
+    progress = Progress(len(paths))
+    if args.jobs > 1 and len(paths) > 1:
+        report = _in_children(argv, args, [p for p in paths if p is not None], targets, progress, emit)
+    else:
+        report = []
+        for path, target in zip(paths, targets):  # one file at a time
+            name = path.name if path else Path(bpy.data.filepath).name
+            progress.show(name, "unwrapping")
+            entry = run_file(args, operator, path, target)
+            progress.done += 1
+            progress.show(name, entry["status"])
+            emit(entry)
+            report.append(entry)
+    progress.close()
     if args.report:
         args.report.write_text(json.dumps(report, indent=1))
-    print(f"batch_unwrap: {len(jobs) - failed} of {len(jobs)} files unwrapped", file=sys.stderr)
-    return 1 if failed else 0
+    bad = [e for e in report if e["status"] != "ok"]
+    print(f"batch_unwrap: {len(report) - len(bad)} of {len(report)} files unwrapped", file=sys.stderr)
+    return 1 if bad else 0
 
 
 if __name__ == "__main__":
@@ -226,7 +454,5 @@ if __name__ == "__main__":
         # exports (measured with 4.2.23); everything is written, so leave at once
         sys.stdout.flush()
         sys.stderr.flush()
-        import os
-
         os._exit(code)
     sys.exit(code)

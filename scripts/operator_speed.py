@@ -41,7 +41,7 @@ def case(name: str):
 
 def timed(method: str, V, F, seams):
     """Seconds of one operator call on a fresh mesh, and for isoparam where they went
-    (:class:`isoparam_addon.blender.unwrap.RunTimings`)."""
+    (:class:`isoparam_addon.blender.unwrap.RunRecord`)."""
     bpy.ops.wm.read_homefile(use_empty=True)
     ob = add_mesh("m", V, F, seams)
     edit(ob)

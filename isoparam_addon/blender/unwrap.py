@@ -19,7 +19,7 @@ from ..solver.placement import FAR, place_in_uv_space
 from ..solver.report import solver_names
 from . import mesh_io
 
-__all__ = ["STRETCH_ATTRIBUTE", "Options", "RunTimings", "last_run", "run", "show_stretch"]
+__all__ = ["STRETCH_ATTRIBUTE", "Options", "RunRecord", "last_run", "run", "show_stretch"]
 
 STRETCH_ATTRIBUTE = "isoparam_stretch"  # the face colour attribute Show Stretch writes
 
@@ -214,10 +214,12 @@ def _object_mode(context):
 
 
 @dataclass
-class RunTimings:
-    """Where the last :func:`run` spent its seconds (for the benchmarks): reading the meshes,
-    the solver (its own :class:`~isoparam_addon.solver.Timings` per mesh), writing the UVs
-    (and seams, stretch colours), Blender's pack, and all of it (mode switches included)."""
+class RunRecord:
+    """What the last :func:`run` did, for scripts (the batch job, the benchmarks): where it
+    spent its seconds (reading the meshes, the solver, with its own
+    :class:`~isoparam_addon.solver.Timings` per mesh, writing the UVs, seams and stretch
+    colours, Blender's pack, and all of it, mode switches included), and the notes and
+    warnings it reported, as reported."""
 
     read: float = 0.0
     solve: float = 0.0
@@ -225,9 +227,11 @@ class RunTimings:
     pack: float = 0.0
     total: float = 0.0
     solver: list = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
 
-last_run = RunTimings()
+last_run = RunRecord()
 
 
 @dataclass
@@ -248,7 +252,7 @@ def run(op, context, opts: Options) -> set:
     """Unwrap the selected faces of every mesh in edit mode. Returns the operator result."""
     t0 = time.perf_counter()
     global last_run
-    last_run = RunTimings()
+    last_run = RunRecord()
     wm = context.window_manager
     space = getattr(context, "space_data", None)
     uv_editor = space is not None and space.type == "IMAGE_EDITOR"
@@ -281,11 +285,9 @@ def run(op, context, opts: Options) -> set:
     finally:
         wm.progress_end()
     if far and opts.pack:  # Blender's packer makes NaN of such UVs, or crashes
-        op.report(
-            {"WARNING"},
-            f"Isometric Unwrap: not packed: UVs beyond {FAR:.0e} or not finite (far pins, world scale, "
-            "or a kept corner)",
-        )
+        text = f"not packed: UVs beyond {FAR:.0e} or not finite (far pins, world scale, or a kept corner)"
+        last_run.warnings.append(text)
+        op.report({"WARNING"}, f"Isometric Unwrap: {text}")
     if pack:
         t_pack = time.perf_counter()
         _pack(context, solved, opts, held or any(k.pins_set for k in kept), kept)
@@ -544,8 +546,10 @@ def _report(op, solved, seconds: float) -> None:
     )
     for s in solved:  # notes and warnings per mesh
         for note in s.notes:
+            last_run.notes.append(f"'{s.sel.name}': {note}")
             op.report({"INFO"}, f"Isometric Unwrap, '{s.sel.name}': {note}")
         for w in s.warnings:
+            last_run.warnings.append(f"'{s.sel.name}': {w}")
             op.report({"WARNING"}, f"Isometric Unwrap, '{s.sel.name}': {w}")
 
 
