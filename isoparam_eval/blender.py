@@ -140,8 +140,57 @@ def checker_material(scale: float = 24.0):
     return mat
 
 
-def render(ob, path, elevation: float = 0.6, samples: int = 16, size=(480, 360)) -> None:
-    """A checker-textured Cycles render (CPU) of ``ob``, framed from above at an angle."""
+def seams_of_islands(ob) -> np.ndarray:
+    """The edges (k, 2 vertex pairs) between the UV islands of ``ob``'s active UV map
+    (Blender's *Seams from Islands*; object mode before and after)."""
+    edit(ob)
+    bpy.ops.uv.seams_from_islands()
+    object_mode()
+    me = ob.data
+    seam = np.zeros(len(me.edges), dtype=bool)
+    me.edges.foreach_get("use_seam", seam)
+    ev = np.empty(2 * len(me.edges), dtype=np.int32)
+    me.edges.foreach_get("vertices", ev)
+    return ev.reshape(-1, 2)[seam].astype(np.int64)
+
+
+def add_seam_lines(ob, pairs, radius: float):
+    """Red tubes of ``radius`` along the edges ``pairs`` (k, 2 vertex pairs) of ``ob``: the
+    seams drawn on the model for a render."""
+    curve = bpy.data.curves.new("seams", "CURVE")
+    curve.dimensions = "3D"
+    curve.bevel_depth = radius
+    V = np.array([ob.matrix_world @ v.co for v in ob.data.vertices])
+    for a, b in np.asarray(pairs).tolist():  # a figure's few hundred seam edges
+        spline = curve.splines.new("POLY")
+        spline.points.add(1)
+        spline.points[0].co = (*V[a], 1.0)
+        spline.points[1].co = (*V[b], 1.0)
+    mat = bpy.data.materials.new("seam")
+    if bpy.app.version < (5, 0, 0):  # always on from 5.0
+        mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    bsdf = next(n for n in nodes if n.type == "BSDF_PRINCIPLED")
+    bsdf.inputs["Base Color"].default_value = (0.9, 0.05, 0.05, 1.0)
+    curve.materials.append(mat)
+    lines = bpy.data.objects.new("seams", curve)
+    bpy.context.scene.collection.objects.link(lines)
+    return lines
+
+
+def render(
+    ob,
+    path,
+    elevation: float = 0.6,
+    samples: int = 16,
+    size=(480, 360),
+    azimuth: float = 0.0,
+    checker: float = 24.0,
+    distance: float = 1.0,
+) -> None:
+    """A checker-textured (``checker`` squares across the UV square) Cycles render (CPU) of
+    ``ob``, framed from above at an angle (turned by ``azimuth`` radians about the vertical,
+    from ``distance`` times the usual distance)."""
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
@@ -149,13 +198,15 @@ def render(ob, path, elevation: float = 0.6, samples: int = 16, size=(480, 360))
     scene.cycles.use_denoising = False
     scene.render.resolution_x, scene.render.resolution_y = size
     ob.data.materials.clear()
-    ob.data.materials.append(checker_material())
+    ob.data.materials.append(checker_material(checker))
     lo = np.array([min(v[i] for v in ob.bound_box) for i in range(3)])
     hi = np.array([max(v[i] for v in ob.bound_box) for i in range(3)])
     centre, radius = (lo + hi) / 2, float(np.linalg.norm(hi - lo)) / 2
     cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
     scene.collection.objects.link(cam)
-    cam.location = centre + radius * np.array([1.3, -1.6, 2.2 * elevation + 0.4])
+    c, s_ = np.cos(azimuth), np.sin(azimuth)
+    offset = np.array([1.3 * c + 1.6 * s_, 1.3 * s_ - 1.6 * c, 2.2 * elevation + 0.4])
+    cam.location = centre + distance * radius * offset
     target = bpy.data.objects.new("target", None)
     scene.collection.objects.link(target)
     target.location = centre

@@ -1,15 +1,19 @@
-"""The demo: unwrap the embedded peaks and S-surface meshes in Blender, five ways.
+"""The demo: unwrap the embedded peaks and S-surface meshes in Blender five ways, and spot.
 
 In one Blender process (bpy), each mesh is unwrapped through the operators: Isometric
 Unwrap with its default refinement and without it (the paper's method), and Blender's
-MINIMUM_STRETCH, ANGLE_BASED and CONFORMAL. Writes to ``out/demo/``:
+MINIMUM_STRETCH, ANGLE_BASED and CONFORMAL. Then spot the cow (a real model, closed, no
+seams marked; public domain, Keenan Crane) by Isometric Unwrap, Smart UV Project and
+Unwrap (Conformal). Writes to ``out/demo/``:
 
 * ``results.md``: time (median of runs), residual variance of edge lengths, relative RMS
   edge error, L2 / Linf stretch, flips;
 * ``<mesh>_layouts.png``: the UV layouts side by side (folded triangles in red);
 * ``<mesh>_stretch.png``: the same layouts as stretch heat maps, in the colours of the
   viewport's Show UV Stretch;
-* ``<mesh>_renders.png``: the checker-textured renders (Cycles, CPU) side by side.
+* ``<mesh>_renders.png``: the checker-textured renders (Cycles, CPU) side by side;
+* ``spot_renders.png`` and ``spot_layouts.png``: spot by the three one-click methods, the
+  seams each made drawn on the model in red, and their UV layouts.
 
 Run through ``bash scripts/demo.sh``, which sets up the environment first.
 """
@@ -27,7 +31,7 @@ import numpy as np
 import isoparam_addon
 from isoparam_addon.solver import metrics
 from isoparam_eval import meshes as ex
-from isoparam_eval.blender import METHODS, add_mesh, bpy, edit, read_uvs, render
+from isoparam_eval.blender import METHODS, add_mesh, add_seam_lines, bpy, edit, read_uvs, render, seams_of_islands
 from isoparam_eval.figures import draw_layout, draw_stretch, stretch_key
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -38,6 +42,7 @@ MESHES = {  # file stem: (title, mesh, camera elevation)
     "s_random": ("S-surface, random Delaunay (600 vertices)", lambda: ex.s_surface_random(600, 3)[:2], 0.35),
 }
 ORDER = ["isoparam", "isoparam (paper, no refinement)", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
+SPOT_ORDER = {"isoparam": "Isometric Unwrap", "SMART_UV": "Smart UV Project", "CONFORMAL": "Unwrap (Conformal)"}
 
 
 def scaled_residual_variance(V, F, cuv) -> float:
@@ -121,14 +126,74 @@ def main(argv=None) -> int:
             fig.tight_layout()
             fig.savefig(out / f"{stem}_renders.png", dpi=100)
             plt.close(fig)
+    lines += _spot(out, args)
     table = "\n".join(lines)
     (out / "results.md").write_text(table + "\n")
     print(table)
     print(
         f"\nwrote {out}/results.md, *_layouts.png (UV layouts), *_stretch.png (stretch heat maps in UV"
-        " space) and *_renders.png (checker renders)"
+        " space), *_renders.png (checker renders) and spot_renders.png / spot_layouts.png (spot, no seams:"
+        " renders with the seams in red, and the layouts)"
     )
     return 0
+
+
+def _spot(out: Path, args) -> list[str]:
+    """Spot, closed and without seams, by the three one-click methods: their table rows,
+    and (unless ``--no-render``) renders with the seams on the model, and the layouts."""
+    V, F, _ = ex.load_obj(ex.SPOT)
+    V = V[:, [0, 2, 1]] * [1.0, -1.0, 1.0]  # the file's y up -> Blender's z up
+    rows, layouts = [], {}
+    for k, (method, title) in enumerate(SPOT_ORDER.items()):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        ob = add_mesh("spot", V, F)
+        edit(ob)
+        t = time.perf_counter()
+        METHODS[method]()
+        seconds = time.perf_counter() - t
+        bpy.ops.object.mode_set(mode="OBJECT")
+        Ft, cuv = read_uvs(ob)
+        label = metrics.uv_islands(Ft, cuv)
+        per = metrics.per_island(V, Ft, cuv, label)
+        seams = seams_of_islands(ob)
+        l3, _ = metrics.edge_lengths(V, Ft, cuv)
+        every = metrics.edge_lengths(V, Ft, np.zeros_like(cuv))[0].sum()
+        failed = per.n_islands == len(Ft)  # every face alone: Unwrap failed (on a closed mesh)
+        layouts[title] = (Ft, cuv, per, failed)
+        rows.append(
+            f"| spot, closed, no seams (2930 vertices) | {title} | {1e3 * seconds:.0f} | islands {per.n_islands} | "
+            f"seams {100 * (l3.sum() - every) / every:.1f}% of edge length | symmetric Dirichlet per island "
+            f"{per.mean_symmetric_dirichlet:.3f} | Linf {per.worst_stretch:.2f} | {int(per.flipped.sum())} |"
+        )
+        if not args.no_render:
+            if not failed:
+                add_seam_lines(ob, seams, radius=0.004)
+            render(ob, out / f"render_spot_{k}.png", 0.3, 2 * args.samples, (640, 480), 1.3, checker=12, distance=1.15)
+        print(f"spot {title:20s} done", file=sys.stderr, flush=True)
+    fig, axes = plt.subplots(1, len(layouts), figsize=(4.2 * len(layouts), 4.4))
+    for ax, (title, (Ft, cuv, per, failed)) in zip(axes, layouts.items()):
+        draw_layout(
+            ax,
+            Ft,
+            cuv,
+            None,
+            f"{title}\n" + ("failed: every UV on one point" if failed else f"{per.n_islands} islands"),
+        )
+    fig.suptitle("spot, closed, no seams: UV layouts")
+    fig.tight_layout()
+    fig.savefig(out / "spot_layouts.png", dpi=100)
+    plt.close(fig)
+    if not args.no_render:
+        fig, axes = plt.subplots(1, len(layouts), figsize=(4.2 * len(layouts), 3.5))
+        for k, (ax, (title, (_, _, per, failed))) in enumerate(zip(axes, layouts.items())):
+            ax.imshow(plt.imread(out / f"render_spot_{k}.png"))
+            ax.set_title(f"{title}: " + ("failed (closed mesh)" if failed else f"{per.n_islands} islands"), fontsize=11)
+            ax.axis("off")
+        fig.suptitle("spot, closed, no seams marked: a checker through each method's UVs, seams in red")
+        fig.tight_layout()
+        fig.savefig(out / "spot_renders.png", dpi=100)
+        plt.close(fig)
+    return rows
 
 
 if __name__ == "__main__":
