@@ -99,9 +99,13 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     V, F, topo = built
     seams = pairs(problem.seams)
     problem = replace(problem, vertices=V, faces=F)
+    t_topology = time.perf_counter() - t0
     owners = _owners(problem, V, F, topo, options.chart_disks)
     if owners.graph is None:  # nothing to chart: the solve as without charts, topology reused
         result = solve(problem, options, built)
+        result.timings.topology += t_topology
+        result.timings.charts = time.perf_counter() - t0 - t_topology - result.timings.total
+        result.timings.total += t_topology + result.timings.charts
         if options.split_overlaps and (result.islands.crossings > 0).any():
             result = without_overlaps(result, problem, options)
         return result
@@ -152,30 +156,33 @@ def _owners(problem: Problem, V: np.ndarray, F: np.ndarray, topo: Topology, disk
         marked[topo.face_island[np.flatnonzero(edge_mask(he, len(V), problem.seams)[he.edge]) // 3]] = True
     maybe = ~pinned & (~marked | disks)  # (islands that are not disks are charted whatever their curvature)
     maybe[topo.cut_islands] = ~pinned[topo.cut_islands]
-    if not maybe.any():
-        return _Owners(topo.face_island, np.zeros(0, dtype=np.int64), np.zeros(n, dtype=bool), topo, None)
-    graph = face_graph(V, F, topo.face_island, problem.seams, problem.inner_edges)
-    curved = _curvature(V, F, topo.face_island, graph, n) > _CURVED
+    curved = _curvature(V, topo) > _CURVED if maybe.any() else np.zeros(n, dtype=bool)
     wanted = maybe & (curved | disks)
     wanted[topo.cut_islands] = maybe[topo.cut_islands]
     charted = np.flatnonzero(wanted)
-    return _Owners(topo.face_island, charted, curved, topo, graph if len(charted) else None)
+    graph = face_graph(V, F, topo.face_island, problem.seams, problem.inner_edges) if len(charted) else None
+    return _Owners(topo.face_island, charted, curved, topo, graph)
 
 
-def _curvature(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, graph: FaceGraph, n: int) -> np.ndarray:
+def _curvature(V: np.ndarray, topo: Topology) -> np.ndarray:
     """Per island (n,), the Gaussian curvature of its interior: the sum of the angle
-    defects ``2 pi - sum of angles`` of its vertices whose faces close around them (4 pi
-    for a closed surface of genus 0, less the turning of its boundary for one with holes;
-    about 0 for a tube or a torus)."""
-    angle, _, _ = corner_angles(V, F)
-    flat = F.ravel()
-    faces_at = np.bincount(flat, minlength=len(V))
-    joined_at = np.bincount(graph.edges.ravel(), minlength=len(V))
-    interior = (faces_at > 0) & (faces_at == joined_at)  # a closed fan: as many joined edges as faces
-    defect = 2.0 * np.pi - np.bincount(flat, angle, minlength=len(V))
-    island = np.zeros(len(V), dtype=np.int64)
-    island[flat] = np.repeat(face_island, 3)
-    return np.bincount(island[interior], defect[interior], minlength=n)
+    defects ``2 pi - sum of angles`` of its vertices off its boundary and seams (the cuts
+    that opened it do not count as boundary): 4 pi for a closed surface of genus 0, less
+    the turning of its boundary for one with holes; 0 for a torus, about 0 for a tube or
+    a height field."""
+    angle, _, _ = corner_angles(V[topo.vertex_of], topo.faces)
+    corner = topo.vertex_of[topo.faces.ravel()]  # the mesh vertex of every corner
+    n = len(V)
+    defect = 2.0 * np.pi - np.bincount(corner, angle, minlength=n)
+    h = np.flatnonzero(topo.he.twin < 0)  # boundary, seams and cuts
+    ends = np.sort(topo.vertex_of[np.stack([topo.faces[h // 3, h % 3], topo.faces[h // 3, (h + 1) % 3]], 1)], 1)
+    cut = np.sort(topo.cut_edges, axis=1)
+    real = ~np.isin(ends[:, 0] * np.int64(n) + ends[:, 1], cut[:, 0] * np.int64(n) + cut[:, 1])
+    inside = np.bincount(corner, minlength=n) > 0
+    inside[ends[real].ravel()] = False
+    island = np.zeros(n, dtype=np.int64)
+    island[corner] = np.repeat(topo.face_island, 3)
+    return np.bincount(island[inside], defect[inside], minlength=topo.n_islands)
 
 
 def _cell_boundaries(graph: FaceGraph, face_island: np.ndarray, islands: np.ndarray) -> np.ndarray:
