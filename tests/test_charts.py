@@ -116,3 +116,11 @@ def test_charts_of_the_paper_method_alone():
     r = parametrize(V, F, charts=True, refine=0, split_overlaps=True)
     assert np.isfinite(r.corner_uv).all() and r.stats.charts == r.n_islands > 1
     assert ("flipped" in [w.kind for w in r.warnings]) == bool(r.flipped.any())
+
+
+def test_a_torus_within_budget_is_only_opened_and_says_so():
+    V, F = ex.torus()  # genus 1: opened by two loops, within the budget as one chart
+    r = parametrize(V, F, **CHARTS)
+    assert r.n_islands == 1 and r.flipped.sum() == 0
+    kinds = [w.kind for w in r.warnings]
+    assert "cut_closed" in kinds and "cut_handles" in kinds and "charts" not in kinds

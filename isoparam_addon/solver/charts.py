@@ -132,7 +132,8 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
             break
         result = cut_further(result, problem, new, split, options)
     result.cut_islands = topo.cut_islands
-    result.timings.charts = time.perf_counter() - t0 - first_solve
+    result.timings.topology += t_topology
+    result.timings.charts = time.perf_counter() - t0 - first_solve - t_topology
     if options.split_overlaps and (result.islands.crossings > 0).any():
         result = without_overlaps(result, problem, options)
     result.warnings = _warnings(result, owners, options.max_stretch)
@@ -357,9 +358,11 @@ def _extreme(value: np.ndarray, isl: np.ndarray, charts: np.ndarray, ufunc, empt
 
 def _warnings(result: Parametrization, owners: _Owners, budget: float) -> list[SolverWarning]:
     """The result's warnings, with what the charts did in place of what the topology cut:
-    the islands cut into charts are named once, by why."""
+    the islands cut into several charts are named once, by why; those only opened (one
+    chart, or pinned) as before."""
     topo = owners.topo
-    kept = np.setdiff1d(topo.cut_islands, owners.charted)  # pinned islands cut open as before
+    pieces = np.bincount(owners.face[_first_faces(result.face_island, result.n_islands)], minlength=topo.n_islands)
+    kept = topo.cut_islands[pieces[topo.cut_islands] == 1]
 
     first = _first_faces(owners.face, topo.n_islands)
 
