@@ -28,6 +28,14 @@ METHODS = {
 }
 
 
+def available(method: str) -> bool:
+    """Whether this Blender has ``method`` (MINIMUM_STRETCH came with 4.3)."""
+    if method != "MINIMUM_STRETCH":
+        return method in METHODS
+    prop = bpy.ops.uv.unwrap.get_rna_type().properties["method"]
+    return "MINIMUM_STRETCH" in [item.identifier for item in prop.enum_items]
+
+
 def add_mesh(name, V, F, seams=None, location=(0, 0, 0)):
     """A mesh object linked to the scene, from vertices (n, 3) and faces: an (m, k) array
     (bulk, fast) or a list of polygons of any sizes; ``seams`` (s, 2) vertex pairs."""

@@ -31,7 +31,17 @@ import numpy as np
 import isoparam_addon
 from isoparam_addon.solver import metrics
 from isoparam_eval import meshes as ex
-from isoparam_eval.blender import METHODS, add_mesh, add_seam_lines, bpy, edit, read_uvs, render, seams_of_islands
+from isoparam_eval.blender import (
+    METHODS,
+    add_mesh,
+    add_seam_lines,
+    available,
+    bpy,
+    edit,
+    read_uvs,
+    render,
+    seams_of_islands,
+)
 from isoparam_eval.figures import draw_layout, draw_stretch, stretch_key
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -41,7 +51,11 @@ MESHES = {  # file stem: (title, mesh, camera elevation)
     "s_regular": ("S-surface, regular (600 vertices)", lambda: ex.s_surface(50, 12)[:2], 0.35),
     "s_random": ("S-surface, random Delaunay (600 vertices)", lambda: ex.s_surface_random(600, 3)[:2], 0.35),
 }
-ORDER = ["isoparam", "isoparam (paper, no refinement)", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
+ORDER = [
+    m
+    for m in ["isoparam", "isoparam (paper, no refinement)", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
+    if available(m)  # (MINIMUM_STRETCH: Blender 4.3 on)
+]
 SPOT_ORDER = {"isoparam": "Isometric Unwrap", "SMART_UV": "Smart UV Project", "CONFORMAL": "Unwrap (Conformal)"}
 
 
@@ -83,15 +97,15 @@ def main(argv=None) -> int:
             Ft, cuv = read_uvs(ob)
             d = metrics.distortion(V, Ft, cuv)
             folded = np.zeros(len(Ft), dtype=bool)
-            if d["flipped"]:
+            if d.flipped:
                 q1, q2 = cuv[:, 1] - cuv[:, 0], cuv[:, 2] - cuv[:, 0]
                 signed = q1[:, 0] * q2[:, 1] - q1[:, 1] * q2[:, 0]
                 folded = np.sign(signed) != np.sign(np.median(signed))
             layouts[method] = (Ft, cuv, folded, d)
             lines.append(
                 f"| {title} | {method} | {1e3 * np.median(times):.1f} | "
-                f"{scaled_residual_variance(V, Ft, cuv):.3e} | {d['edge_rms']:.3f} | {d['stretch_l2']:.3f} | "
-                f"{d['stretch_linf']:.2f} | {d['flipped']} |"
+                f"{scaled_residual_variance(V, Ft, cuv):.3e} | {d.edge_rms:.3f} | {d.stretch_l2:.3f} | "
+                f"{d.stretch_linf:.2f} | {d.flipped} |"
             )
             if not args.no_render:
                 render(ob, out / f"render_{stem}_{ORDER.index(method)}.png", elevation, args.samples)
@@ -99,7 +113,7 @@ def main(argv=None) -> int:
         fig, axes = plt.subplots(1, len(ORDER), figsize=(4.2 * len(ORDER), 4.4))
         for ax, method in zip(axes, ORDER):
             Ft, cuv, folded, d = layouts[method]
-            draw_layout(ax, Ft, cuv, folded, f"{method}\nedge RMS {d['edge_rms']:.3f}, L2 {d['stretch_l2']:.2f}")
+            draw_layout(ax, Ft, cuv, folded, f"{method}\nedge RMS {d.edge_rms:.3f}, L2 {d.stretch_l2:.2f}")
         fig.suptitle(title)
         fig.tight_layout()
         fig.savefig(out / f"{stem}_layouts.png", dpi=100)

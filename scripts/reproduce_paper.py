@@ -80,14 +80,14 @@ def main(argv=None) -> int:
     ):
         d = metrics.distortion(V, F, uv)
         md.append(
-            f"| {name} | {d['residual_variance']:.4e} | {d['edge_rms']:.3f} | {d['flipped']} | "
+            f"| {name} | {d.residual_variance:.4e} | {d.edge_rms:.3f} | {d.flipped} | "
             f"{fmt_time(t) if t is not None else '-'} | {paper} |"
         )
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.4))
     for ax, (name, uv) in zip(axes, (("isoparam", uv_o), ("Isomap", uv_i), ("Floater", uv_f))):
         d = metrics.distortion(V, F, uv)
         flips = metrics.flipped(V, F, uv)
-        draw_layout(ax, F, uv, None, f"{name}: residual variance {d['residual_variance']:.3e}, {flips} flips")
+        draw_layout(ax, F, uv, None, f"{name}: residual variance {d.residual_variance:.3e}, {flips} flips")
     fig.tight_layout()
     fig.savefig(out / "fig5_peaks.png", dpi=110)
     plt.close(fig)
