@@ -1,7 +1,7 @@
 """Blender glue: the only code that touches both bpy and numpy.
 
-Imports bpy lazily (in :func:`register`), so :mod:`.layout` stays importable and
-testable without Blender.
+Imports bpy lazily (in :func:`register`), so that importing the package (the extension's
+``__init__`` does) costs nothing until Blender registers it.
 """
 
 from __future__ import annotations
