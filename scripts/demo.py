@@ -141,6 +141,12 @@ def main(argv=None) -> int:
             fig.savefig(out / f"{stem}_renders.png", dpi=100)
             plt.close(fig)
     lines += _spot(out, args)
+    lines += [
+        "",
+        "Linf is Sander et al.'s worst stretch (the largest singular value of the UV-to-3D map) at the",
+        "layout's best scale; the heat maps' 'worst' is max(sigma1, 1/sigma2) per face at the scale that",
+        "gives the UVs the mesh's area (as Show UV Stretch colours it), so the two differ.",
+    ]
     table = "\n".join(lines)
     (out / "results.md").write_text(table + "\n")
     print(table)

@@ -18,18 +18,30 @@ different UVs) as a share of all edges. Run it through the benchmark environment
 
     bash scripts/bench.sh scripts/real_meshes.py                        # every mesh, smart and none
     bash scripts/bench.sh scripts/real_meshes.py --meshes spot homer --seams none --methods isoparam xatlas
+    bash scripts/bench.sh scripts/real_meshes.py --seams none --repeat 1 --pictures docs/img/no_seams
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
 from isoparam_addon.solver import metrics
 from isoparam_eval import meshes as ex
-from isoparam_eval.blender import METHODS, add_mesh, bpy, edit, read_uvs, smart_uv_seams
+from isoparam_eval.blender import (
+    METHODS,
+    add_mesh,
+    add_seam_lines,
+    bpy,
+    edit,
+    read_uvs,
+    render,
+    seams_of_islands,
+    smart_uv_seams,
+)
 
 ALL = ["isoparam", "ANGLE_BASED", "CONFORMAL", "SMART_UV", "xatlas"]
 
@@ -83,6 +95,38 @@ def run_operator(method: str, V, F, seams, repeat: int):
     return float(np.median(times)), Ft, cuv
 
 
+def picture(path: Path, name: str, V, shots: dict) -> None:
+    """One PNG per mesh: per method, a checker render with its seams in red (the edges
+    between its UV islands) above its UV layout. ``shots``: method -> (Ft, corner UVs)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from isoparam_eval.figures import draw_layout
+
+    fig, axes = plt.subplots(2, len(shots), figsize=(4.0 * len(shots), 7.2), squeeze=False)
+    for k, (method, (Ft, cuv)) in enumerate(shots.items()):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        ob = add_mesh("m", V, Ft)
+        ob.data.uv_layers.new(name="UVMap").uv.foreach_set("vector", cuv.astype(np.float32).ravel())
+        islands = metrics.uv_islands(Ft, cuv).max() + 1
+        failed = islands == len(Ft)  # every face alone: Blender's unwrap failed on a closed part
+        if not failed:
+            lo, hi = V.min(axis=0), V.max(axis=0)
+            add_seam_lines(ob, seams_of_islands(ob), radius=0.0025 * float(np.linalg.norm(hi - lo)))
+        shot = path.parent / f"{path.stem}_{k}.png"
+        render(ob, shot, 0.35, 16, (480, 360), 1.3, checker=12)
+        axes[0, k].imshow(plt.imread(shot))
+        axes[0, k].axis("off")
+        axes[0, k].set_title(f"{method}: " + ("failed" if failed else f"{islands} islands"), fontsize=10)
+        draw_layout(axes[1, k], Ft, cuv, None, "")
+    fig.suptitle(f"{name}, no seams marked: checker and seams (red), UV layout")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
 def run_xatlas(V, F, repeat: int):
     import xatlas
 
@@ -100,6 +144,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seams", nargs="+", default=["smart", "none", "artist"], choices=["smart", "none", "artist"])
     ap.add_argument("--methods", nargs="+", default=ALL, choices=[*METHODS, "xatlas"])
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--pictures", type=Path, help="folder for a render-and-layout PNG per mesh (no-seam mode)")
     args = ap.parse_args(argv)
     import isoparam_addon
 
@@ -116,6 +161,7 @@ def main(argv=None) -> int:
             if found is None:
                 continue
             V, F, S = found
+            shots = {}
             for method in args.methods:
                 if method in ("xatlas", "SMART_UV"):
                     if seams != "none":
@@ -125,12 +171,16 @@ def main(argv=None) -> int:
                 else:
                     t, Ft, cuv = run_operator(method, V, F, S, args.repeat)
                 m = measure(V, Ft, cuv)
+                shots[method] = (Ft, cuv)
                 print(
                     f"| {name} | {seams} | {method} | {t:.2f} | {m['islands']} | {m['sd']:.3f} | {m['linf']:.2f} | "
                     f"{m['flips']} | {m['overlapping']} | {m['crossings']} | {m['covered_twice']:.3f} | "
                     f"{m['seam']:.1f} |",
                     flush=True,
                 )
+            if args.pictures is not None and seams == "none":
+                args.pictures.mkdir(parents=True, exist_ok=True)
+                picture(args.pictures / f"{name}_none.png", name, V, shots)
     return 0
 
 

@@ -28,8 +28,13 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         description="Island shape the packer fits together",
         items=(
             ("AABB", "Bounding Box", "Fast, as Unwrap packs (Suzanne's 112 islands: 0.02 s)"),
-            ("CONVEX", "Convex Hull", "Tighter, slower"),
-            ("CONCAVE", "Exact Shape", "Tightest, slowest (Suzanne's 112 islands: 2.2 s)"),
+            (
+                "CONVEX",
+                "Convex Hull",
+                "Tighter than boxes; can take longer than Exact Shape (measured: 8.0 s "
+                "against 1.4-3.0 s on 129-289 islands)",
+            ),
+            ("CONCAVE", "Exact Shape", "Tightest; seconds on many islands (Suzanne's 112 islands: 2.2 s)"),
         ),
         default="AABB",
     )
