@@ -24,6 +24,7 @@ different UVs) as a share of all edges. Run it through the benchmark environment
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
 from pathlib import Path
 
@@ -115,7 +116,7 @@ def picture(path: Path, name: str, V, shots: dict) -> None:
         if not failed:
             lo, hi = V.min(axis=0), V.max(axis=0)
             add_seam_lines(ob, seams_of_islands(ob), radius=0.0025 * float(np.linalg.norm(hi - lo)))
-        shot = path.parent / f"{path.stem}_{k}.png"
+        shot = Path(tempfile.mkdtemp()) / "render.png"
         render(ob, shot, 0.35, 16, (480, 360), 1.3, checker=12)
         axes[0, k].imshow(plt.imread(shot))
         axes[0, k].axis("off")
