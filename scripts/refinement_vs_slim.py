@@ -1,10 +1,11 @@
 """isoparam's refinement against libigl's SLIM on the same cut, on real meshes.
 
-For every mesh (no seams: every closed or holed part is cut open by isoparam), the solver
-runs with the operator's defaults; then libigl's SLIM (Rabinovich et al. 2017, symmetric
-Dirichlet) runs on exactly the islands isoparam returned, each from its Tutte embedding,
-to convergence (at most ``--slim-iterations``, stopping when an iteration lowers the
-energy by less than ``--slim-tol``, relative). Distortion is measured per island at each
+For every mesh (no seams: every closed or holed part is cut open by isoparam, into charts
+unless ``--no-charts``), the solver runs with the operator's defaults; then libigl's SLIM
+(Rabinovich et al. 2017, symmetric Dirichlet) runs on exactly the islands isoparam
+returned, each from its Tutte embedding, to convergence (at most ``--slim-iterations``,
+stopping when an iteration lowers the energy by less than ``--slim-tol``, relative).
+Distortion is measured per island at each
 island's best scale (solver.metrics.per_island). Times are medians of ``--repeat`` runs;
 SLIM's includes its precomputation, not the energy evaluations of the stopping test.
 
@@ -14,7 +15,7 @@ symmetric Dirichlet energy moved.
 libigl is a benchmark-only dependency (``pip install libigl``), never the add-on's:
 
     python scripts/refinement_vs_slim.py                       # every mesh of ../shared/meshes and Suzanne
-    python scripts/refinement_vs_slim.py --meshes spot homer --extra-cuts 0 --noise
+    python scripts/refinement_vs_slim.py --meshes spot homer --no-charts --extra-cuts 0 --noise
 """
 
 from __future__ import annotations
@@ -88,7 +89,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--meshes", nargs="+", default=[*ex.REAL, "suzanne"])
     ap.add_argument("--refine", type=int, default=1000, help="the refinement's iteration cap (the operator's default)")
-    ap.add_argument("--extra-cuts", type=int, default=4)
+    ap.add_argument("--extra-cuts", type=int, default=4, help="with --no-charts")
+    ap.add_argument("--no-charts", action="store_true", help="one island per part, opened by its shortest cut")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--slim-iterations", type=int, default=200)
     ap.add_argument("--slim-tol", type=float, default=1e-6)
@@ -101,9 +103,8 @@ def main(argv=None) -> int:
     print("|---" * (13 + args.noise) + "|")
     for name in args.meshes:
         V, F = load(name)
-        solve = lambda V=V, F=F: parametrize(  # noqa: E731
-            V, F, split_nonmanifold=True, refine=args.refine, extra_cuts=args.extra_cuts
-        )
+        options = dict(refine=args.refine, extra_cuts=args.extra_cuts, charts=not args.no_charts, split_overlaps=True)
+        solve = lambda V=V, F=F, options=options: parametrize(V, F, **options)  # noqa: E731
         times, r = [], None
         for _ in range(args.repeat):  # timed solves
             t0 = time.perf_counter()
@@ -125,13 +126,7 @@ def main(argv=None) -> int:
         )
         if args.noise:
             rng = np.random.default_rng(0)
-            noisy = parametrize(
-                V * (1 + 1e-12 * rng.standard_normal(V.shape)),
-                F,
-                split_nonmanifold=True,
-                refine=args.refine,
-                extra_cuts=args.extra_cuts,
-            )
+            noisy = parametrize(V * (1 + 1e-12 * rng.standard_normal(V.shape)), F, **options)
             e = metrics.per_island(noisy.vertices, noisy.faces, noisy.corner_uv, noisy.face_island)
             row += f" {abs(e.mean_symmetric_dirichlet / ours.mean_symmetric_dirichlet - 1):.1e} |"
         print(row, flush=True)
