@@ -87,18 +87,9 @@ def smart_uv_seams(V, F, angle_limit: float = 1.15) -> np.ndarray:
     ob = add_mesh("smart", V, np.asarray(F))
     edit(ob)
     bpy.ops.uv.smart_project(angle_limit=angle_limit, island_margin=0.0)
-    # before 5.0, seams_from_islands sees no UV selection headless unless sync select is on
-    settings = bpy.context.scene.tool_settings
-    sync, settings.use_uv_select_sync = settings.use_uv_select_sync, True
-    bpy.ops.uv.seams_from_islands()
-    settings.use_uv_select_sync = sync
+    mark_island_seams()
     bpy.ops.object.mode_set(mode="OBJECT")
-    me = ob.data
-    ev = np.empty(2 * len(me.edges), np.int32)
-    me.edges.foreach_get("vertices", ev)
-    seam = np.zeros(len(me.edges), bool)
-    me.edges.foreach_get("use_seam", seam)
-    return ev.reshape(-1, 2)[seam].astype(np.int64)
+    return _seam_edges(ob.data)
 
 
 def suzanne(levels: int = 2):
@@ -114,11 +105,7 @@ def suzanne(levels: int = 2):
     bpy.ops.mesh.select_all(action="SELECT")
     bpy.ops.mesh.quads_convert_to_tris()
     bpy.ops.uv.smart_project(angle_limit=1.15, island_margin=0.0)
-    # before 5.0, seams_from_islands sees no UV selection headless unless sync select is on
-    settings = bpy.context.scene.tool_settings
-    sync, settings.use_uv_select_sync = settings.use_uv_select_sync, True
-    bpy.ops.uv.seams_from_islands()
-    settings.use_uv_select_sync = sync
+    mark_island_seams()
     bpy.ops.object.mode_set(mode="OBJECT")
     me = ob.data
     V = np.empty(3 * len(me.vertices), np.float32)
@@ -148,18 +135,31 @@ def checker_material(scale: float = 24.0):
     return mat
 
 
-def seams_of_islands(ob) -> np.ndarray:
-    """The edges (k, 2 vertex pairs) between the UV islands of ``ob``'s active UV map
-    (Blender's *Seams from Islands*; object mode before and after)."""
-    edit(ob)
+def mark_island_seams() -> None:
+    """Blender's *Seams from Islands* on the meshes in edit mode (before 5.0, headless, it
+    sees no UV selection unless sync select is on: it is, for the call)."""
+    settings = bpy.context.scene.tool_settings
+    sync, settings.use_uv_select_sync = settings.use_uv_select_sync, True
     bpy.ops.uv.seams_from_islands()
-    object_mode()
-    me = ob.data
+    settings.use_uv_select_sync = sync
+
+
+def _seam_edges(me) -> np.ndarray:
+    """The seam edges of mesh ``me`` (k, 2 vertex pairs; object mode)."""
     seam = np.zeros(len(me.edges), dtype=bool)
     me.edges.foreach_get("use_seam", seam)
     ev = np.empty(2 * len(me.edges), dtype=np.int32)
     me.edges.foreach_get("vertices", ev)
     return ev.reshape(-1, 2)[seam].astype(np.int64)
+
+
+def seams_of_islands(ob) -> np.ndarray:
+    """The edges (k, 2 vertex pairs) between the UV islands of ``ob``'s active UV map
+    (object mode before and after)."""
+    edit(ob)
+    mark_island_seams()
+    object_mode()
+    return _seam_edges(ob.data)
 
 
 def add_seam_lines(ob, pairs, radius: float):

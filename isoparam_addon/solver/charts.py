@@ -48,14 +48,15 @@ from scipy.sparse import csgraph
 
 from . import metrics
 from .geometry import corner_angles, corner_signed_areas, face_areas
+from .islands import first_rows
 from .mesh import HalfEdges, edge_mask
 from .mincut import FaceGraph, face_graph, minimum_cut, source_side
 from .options import Options, Problem
-from .pipeline import TOPOLOGY_WARNINGS, solve, topology_warnings
+from .pipeline import TOPOLOGY_WARNINGS, solve, topology_of, topology_warnings
 from .report import SolverWarning, charted, opened
 from .resolve import cut_further, pairs
 from .result import Parametrization
-from .topology import Topology, build_topology
+from .topology import Topology
 from .untangle import separating_cuts, without_overlaps
 
 __all__ = ["with_charts"]
@@ -88,14 +89,7 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     ``options.max_stretch`` allows (:func:`energy_budget`) at most; with
     ``options.split_overlaps``, charts that overlap themselves are cut apart."""
     t0 = time.perf_counter()
-    built = build_topology(
-        problem.vertices,
-        problem.faces,
-        problem.seams,
-        options.split_nonmanifold,
-        problem.inner_edges,
-        problem.pinned_vertices(),
-    )
+    built = topology_of(problem, options)
     V, F, topo = built
     seams = pairs(problem.seams)
     problem = replace(problem, vertices=V, faces=F)
@@ -197,7 +191,7 @@ def _cell_boundaries(graph: FaceGraph, face_island: np.ndarray, islands: np.ndar
         return np.zeros((0, 2), dtype=np.int64)
     G = graph.distances()
     on = np.isin(face_island, islands)
-    far = csgraph.dijkstra(G, directed=False, indices=_first_faces(face_island)[islands], min_only=True)
+    far = csgraph.dijkstra(G, directed=False, indices=first_rows(face_island)[islands], min_only=True)
     seeds = [_farthest(far, on, face_island, islands)]
     reach = [csgraph.dijkstra(G, directed=False, indices=seeds[0], min_only=True)]
     for _ in range(_CELLS - 1):
@@ -252,7 +246,7 @@ def _chart_energy(result: Parametrization, owners: _Owners):
     best scale, its 3D area (0 for charts of islands that are not charted, or without
     area), and the island it was cut from."""
     per = metrics.per_island(result.vertices, result.faces, result.corner_uv, result.face_island)
-    owner = owners.face[_first_faces(result.face_island, result.n_islands)]
+    owner = owners.face[first_rows(result.face_island, result.n_islands)]
     ok = np.isin(owner, owners.charted) & (per.area > 0) & np.isfinite(per.symmetric_dirichlet)
     return np.where(ok, per.symmetric_dirichlet, 4.0), np.where(ok, per.area, 0.0), owner
 
@@ -325,7 +319,7 @@ def _charted(result: Parametrization, owners: _Owners, budget: float) -> list[So
         return []
     total = np.bincount(owner, area, minlength=len(pieces))
     mean = np.bincount(owner, energy * area, minlength=len(pieces)) / np.maximum(total, 1e-300)
-    first = result.face_island[_first_faces(owners.face)[cut[0]]]
+    first = result.face_island[first_rows(owners.face)[cut[0]]]
     not_disk = np.isin(cut, owners.topo.cut_islands)
     return charted(
         islands=len(cut),
@@ -337,13 +331,6 @@ def _charted(result: Parametrization, owners: _Owners, budget: float) -> list[So
         budget=budget,
         first=int(first),
     )
-
-
-def _first_faces(face_island: np.ndarray, n: int | None = None) -> np.ndarray:
-    """The lowest-numbered face of every island (n,)."""
-    first = np.full(int(face_island.max()) + 1 if n is None else n, len(face_island), dtype=np.int64)
-    np.minimum.at(first, face_island, np.arange(len(face_island)))
-    return first
 
 
 def _extreme(value: np.ndarray, isl: np.ndarray, charts: np.ndarray, ufunc, empty: float) -> np.ndarray:
@@ -361,10 +348,10 @@ def _warnings(result: Parametrization, owners: _Owners, budget: float) -> list[S
     the islands cut into several charts are named once, by why; those only opened (one
     chart, or pinned) as before."""
     topo = owners.topo
-    pieces = np.bincount(owners.face[_first_faces(result.face_island, result.n_islands)], minlength=topo.n_islands)
+    pieces = np.bincount(owners.face[first_rows(result.face_island, result.n_islands)], minlength=topo.n_islands)
     kept = topo.cut_islands[pieces[topo.cut_islands] == 1]
 
-    first = _first_faces(owners.face, topo.n_islands)
+    first = first_rows(owners.face, topo.n_islands)
 
     def now(islands):  # the result's island holding each island's first face
         return result.face_island[first[np.intersect1d(islands, kept)]]

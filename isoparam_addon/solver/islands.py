@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Islands"]
+__all__ = ["Islands", "first_rows"]
 
 _LARGE = 1024  # islands with more rows than this get their own BLAS call (and SVD)
 
@@ -247,3 +247,11 @@ class Islands:
             r = self.rows(i)
             out[r] = np.dot(V[r], T[i])
         return out
+
+
+def first_rows(label: np.ndarray, n: int | None = None) -> np.ndarray:
+    """The lowest-numbered row of every label (n,) (``len(label)`` for a label with none):
+    e.g. the first face of every island, its representative."""
+    first = np.full(int(label.max(initial=-1)) + 1 if n is None else n, len(label), dtype=np.int64)
+    np.minimum.at(first, label, np.arange(len(label)))
+    return first

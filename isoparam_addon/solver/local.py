@@ -23,12 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .geometry import NEXT, PREV, corner_angles
 from .mesh import Fans
 
-__all__ = ["Patch", "corner_angles", "local_flattening"]
+__all__ = ["Patch", "local_flattening"]
 
-_NEXT = np.array([1, 2, 0])
-_PREV = np.array([2, 0, 1])
 _CHUNK = 8192  # vertices per block of stacked fans: ~3 MB per (K+1, K+1, chunk) array
 
 
@@ -54,43 +53,6 @@ class Patch:
     corners: np.ndarray
     coords: np.ndarray
     boundary: bool
-
-
-def corner_angles(X: np.ndarray, faces: np.ndarray):
-    """Interior angle of every corner and the lengths of its two edges.
-
-    Returns ``(angle, to_next, to_prev)``, each (3m,) float64: the angle at corner
-    ``c = 3f + k`` in [0, pi], and the lengths from its vertex to the next and previous
-    vertex of face f. ``atan2(|e1 x e2|, e1 . e2)`` is accurate for tiny and obtuse angles
-    and gives 0, not NaN, for zero-length edges. Works on coordinate columns, in chunks
-    of faces that stay in cache.
-    """
-    m = len(faces)
-    angle = np.empty((m, 3))
-    length = np.empty((m, 3))
-    # gathers from 1-D columns: numpy's row gather X[idx] on an (n, 3) array is 5-20x slower
-    x, y, z = (np.ascontiguousarray(X[:, c]) for c in range(3))
-    corner = [np.ascontiguousarray(faces[:, k]) for k in range(3)]
-    step = 1 << 16
-    for lo in range(0, m, step):  # chunks of 65536 faces
-        f = [c[lo : lo + step] for c in corner]
-        ex, ey, ez = [], [], []
-        for k in range(3):  # edge k runs from corner k to corner k+1
-            a, b = f[k], f[(k + 1) % 3]
-            ex.append(x[b] - x[a])
-            ey.append(y[b] - y[a])
-            ez.append(z[b] - z[a])
-        nx = ey[0] * ez[1] - ez[0] * ey[1]  # twice the area vector, shared by the corners
-        ny = ez[0] * ex[1] - ex[0] * ez[1]
-        nz = ex[0] * ey[1] - ey[0] * ex[1]
-        double_area = np.sqrt(nx * nx + ny * ny + nz * nz)
-        sl = slice(lo, lo + len(f[0]))
-        for k in range(3):
-            j = (k + 2) % 3  # the edge arriving at corner k
-            dot = -(ex[j] * ex[k] + ey[j] * ey[k] + ez[j] * ez[k])
-            angle[sl, k] = np.arctan2(double_area, dot)
-            length[sl, k] = np.sqrt(ex[k] * ex[k] + ey[k] * ey[k] + ez[k] * ez[k])
-    return angle.ravel(), length.ravel(), length[:, _PREV].ravel()
 
 
 def _orthonormalize(Z: np.ndarray) -> np.ndarray:
@@ -195,8 +157,8 @@ def local_flattening(X: np.ndarray, faces: np.ndarray, fan: Fans) -> list[Patch]
         One per (fan size, boundary) group, every vertex in exactly one group.
     """
     angle, to_next, to_prev = corner_angles(X, faces)
-    nxt = faces[:, _NEXT].ravel()
-    prv = faces[:, _PREV].ravel()
+    nxt = faces[:, NEXT].ravel()
+    prv = faces[:, PREV].ravel()
     K_all = fan.n_faces
     patches = []
     for boundary in (False, True):

@@ -21,6 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
+from .islands import first_rows
 from .mesh import HalfEdges, edge_mask
 
 __all__ = ["FaceGraph", "face_graph", "minimum_cut", "source_side"]
@@ -75,9 +76,7 @@ class FaceGraph:
         m = self.n_faces
         joined = sp.coo_matrix((np.ones(int(never.sum())), (self.f[never], self.g[never])), shape=(m, m))
         _, label = csgraph.connected_components(joined, directed=False)
-        lowest = np.full(int(label.max()) + 1, m, dtype=np.int64)
-        np.minimum.at(lowest, label, np.arange(m))
-        return lowest[label]
+        return first_rows(label)[label]
 
     def distances(self) -> sp.csr_matrix:
         """The graph weighted by the distance between face centroids (symmetric)."""

@@ -32,7 +32,7 @@ from .result import Parametrization, per_corner_and_vertex
 from .topology import Topology, build_topology
 from .weights import Flagged, reconstruction_weights
 
-__all__ = ["solve"]
+__all__ = ["solve", "topology_of"]
 
 _BACKGROUND_FROM = 20_000  # vertices; below this a second thread costs more than it saves
 
@@ -52,18 +52,9 @@ class _Clock:
 
 def solve(problem: Problem, options: Options, built: tuple | None = None) -> Parametrization:
     """Parametrize ``problem`` with ``options`` (see :func:`.parametrize`); ``built``, if
-    given, is what :func:`.topology.build_topology` returned for it (with the problem's
-    pinned vertices to avoid), not built again."""
+    given, is what :func:`topology_of` returned for it, not built again."""
     clock = _Clock()
-    # a closed island's cut loops all meet at its root: never a pinned vertex if it can be helped
-    V, F, topo = built or build_topology(
-        problem.vertices,
-        problem.faces,
-        problem.seams,
-        options.split_nonmanifold,
-        problem.inner_edges,
-        problem.pinned_vertices(),
-    )
+    V, F, topo = built or topology_of(problem, options)
     unit = unit_of(V)  # work in units of a power of two near the mesh's size (exact)
     X = V[topo.vertex_of] / unit
     islands = Islands(topo.vertex_island, topo.n_islands)
@@ -108,6 +99,19 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
     clock.lap("placement")
     report = _island_report(islands, emb, clipped, flagged, pins, held, reached, info, unit)
     return _result(V, F, topo, placed, unit, emb, report, info, clock)
+
+
+def topology_of(problem: Problem, options: Options):
+    """:func:`.topology.build_topology` of ``problem``: ``(V, F, topo)``. A closed island's
+    cut loops all meet at its root: never a pinned vertex if it can be helped."""
+    return build_topology(
+        problem.vertices,
+        problem.faces,
+        problem.seams,
+        options.split_nonmanifold,
+        problem.inner_edges,
+        problem.pinned_vertices(),
+    )
 
 
 def _four_steps(X, topo: Topology, islands: Islands, options: Options, plan, clock: _Clock):

@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .geometry import signed_areas
-from .islands import Islands
+from .islands import Islands, first_rows
 from .mesh import unit_of
 from .options import Options, Problem
 from .overlap import boundary_crossings
@@ -126,8 +126,7 @@ def combine(first: Parametrization, parts: list[Part], problem: Problem, options
         corner_uv[taken] = part.result.corner_uv[part.keep]
         owner[taken], local[taken] = k, np.flatnonzero(part.keep)
     n = topo.n_islands
-    rep = np.full(n, len(F), dtype=np.int64)  # a face of every new island
-    np.minimum.at(rep, topo.face_island, np.arange(len(F)))
+    rep = first_rows(topo.face_island, n)  # a face of every new island
     sources = [(first, _Source(np.flatnonzero(owner[rep] < 0), first.face_island[rep[owner[rep] < 0]]))]
     for k, part in enumerate(parts):
         mine = np.flatnonzero(owner[rep] == k)
@@ -199,8 +198,7 @@ def carried_warnings(first: Parametrization, result: Parametrization) -> list[So
     it went on from) said about the topology, extra cuts and charts in place of what
     :func:`combine` says again. An island named by ``first`` is named as the island of
     ``result`` that holds its lowest-numbered face."""
-    lowest = np.full(first.n_islands, len(first.faces), dtype=np.int64)
-    np.minimum.at(lowest, first.face_island, np.arange(len(first.faces)))
+    lowest = first_rows(first.face_island, first.n_islands)
     kept = [
         replace(w, first=(int(result.face_island[lowest[w.first[0]]]),)) if w.element == "island" and w.first else w
         for w in first.warnings

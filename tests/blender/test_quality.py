@@ -8,6 +8,7 @@ import pytest
 
 from isoparam_addon.solver import metrics
 from isoparam_eval import meshes as ex
+from isoparam_eval.blender import mark_island_seams
 
 from .conftest import add_mesh, bpy, corner_uvs, corner_verts, edit, object_mode, positions, triangles
 
@@ -23,11 +24,7 @@ def _suzanne():
     edit(ob)
     bpy.ops.mesh.quads_convert_to_tris()
     bpy.ops.uv.smart_project(angle_limit=1.15, island_margin=0.0)
-    # before 5.0, seams_from_islands sees no UV selection headless unless sync select is on
-    settings = bpy.context.scene.tool_settings
-    sync, settings.use_uv_select_sync = settings.use_uv_select_sync, True
-    bpy.ops.uv.seams_from_islands()
-    settings.use_uv_select_sync = sync
+    mark_island_seams()
     object_mode()
     return ob
 
