@@ -31,6 +31,10 @@ class Options:
     refine : int
         Iterations of isometric refinement (symmetric Dirichlet, no folds; see
         :mod:`.refinement`) after the four steps. 0 is the paper's method.
+    refine_tol : float
+        The refinement stops an island once its energy fell by less than this (relative)
+        over 5 iterations. Charting (``charts``) refines to at most 1e-5 wherever it
+        cuts: it chooses its cuts from the refined layout (see :mod:`.charts`).
     extra_cuts : int
         Islands that had to be cut automatically (closed, handles, holes) get up to this
         many more cuts while they help (see :mod:`.cuts`). 0: the shortest cut that
@@ -60,6 +64,7 @@ class Options:
     max_iter: int = 40
     split_nonmanifold: bool = True
     refine: int = 0
+    refine_tol: float = 2e-4
     extra_cuts: int = 0
     charts: bool = False
     chart_disks: bool = False

@@ -81,6 +81,7 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
             islands,
             topo.he.twin,
             iterations=options.refine,
+            tol=options.refine_tol,
             pinned=fixed,
             order=order,
             proxy=proxy,
