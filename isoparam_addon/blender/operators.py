@@ -20,7 +20,7 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
     pack: BoolProperty(
         name="Pack Islands",
         description="Pack the islands into the UV square afterwards; off keeps every island "
-        "where its old UVs were (unwrap in place)",
+        "where its old UVs were (unwrap in place; new charts of one old island share its place)",
         default=True,
     )
     pack_shape: EnumProperty(

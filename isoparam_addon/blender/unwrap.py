@@ -479,6 +479,7 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             world_scale=opts.world_scale,
             aspect=aspect,
             margin=opts.margin if opts.pack else 0.0,
+            corner_vertex=sel.F,
         )
         with np.errstate(over="ignore"):
             stored = uv[~locked].astype(np.float32)  # what the UV map would hold (locked: as it was)

@@ -10,6 +10,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
 
 from .geometry import corner_signed_areas
 from .islands import Islands
@@ -121,7 +123,9 @@ def _into_unit_square(uv, margin):
     return out
 
 
-def place_in_uv_space(uv, island, n, *, locked, old, in_place, world_scale, aspect=None, margin=0.0):
+def place_in_uv_space(
+    uv, island, n, *, locked, old, in_place, world_scale, aspect=None, margin=0.0, corner_vertex=None
+):
     """Final corner UVs of the unwrapped triangles, as the Blender operator writes them.
 
     Parameters
@@ -139,7 +143,15 @@ def place_in_uv_space(uv, island, n, *, locked, old, in_place, world_scale, aspe
         rotation, and (unless ``world_scale``) the same UV area, so texel density stays.
         Islands whose old UVs have no area (a mesh never unwrapped), or hold a value that
         is not finite or beyond ``FAR``, are laid out anew, fitted into [0, 1] unless
-        ``world_scale``.
+        ``world_scale``. Islands that share an old island (see ``corner_vertex``) go
+        there together, side by side.
+    corner_vertex : (t, 3) int64, optional
+        The mesh vertex of every corner. With ``in_place``, islands whose faces lay in one
+        island of the old UVs (charts cut from it, or pieces cut apart where it overlapped
+        itself; transitively, where new and old islands cross) form a group, which is
+        packed on shelves and put where the group's old UVs were (centroid and area, no
+        turn), so that they do not land on top of each other. Without it every island is
+        a group of its own.
     world_scale : bool
         Keep mesh units (1 UV unit = 1 world unit) instead of fitting into [0, 1].
     aspect : float, optional
@@ -170,22 +182,28 @@ def place_in_uv_space(uv, island, n, *, locked, old, in_place, world_scale, aspe
     every = np.ones(len(ref))
     has_old_area = np.bincount(island, np.abs(corner_signed_areas(ref.reshape(-1, 3, 2))), minlength=n) > 0
     if in_place:
-        # rotation from the best fit, size from the old area (texel density kept),
-        # centroid onto the old centroid
-        turn = similarity_fit(uv.reshape(-1, 2), ref, corners, every, scale=False)
-        a_new = np.bincount(island, np.abs(corner_signed_areas(uv)), minlength=n)
-        a_old = np.bincount(island, np.abs(corner_signed_areas(ref.reshape(-1, 3, 2))), minlength=n)
-        fit = turn.ok & ~held & usable & (a_old > 0) & (a_new > 0)
+        # rotation from the best fit (a group of several islands keeps its shelves
+        # upright), size from the old area (texel density kept), centroid onto the old one
+        group, k, one_old = _old_groups(island, n, corner_vertex, old, held)
+        several = np.bincount(group, minlength=k) > 1
+        if several.any():
+            uv = _shelved(uv, island, n, group, several[group], margin or _GROUP_GAP)
+        by_group = Islands.labelled(np.repeat(group[island], 3), k)
+        turn = similarity_fit(uv.reshape(-1, 2), ref, by_group, every, scale=False)
+        a_new = np.bincount(group[island], np.abs(corner_signed_areas(uv)), minlength=k)
+        a_old = np.bincount(group[island], np.abs(corner_signed_areas(ref.reshape(-1, 3, 2))), minlength=k)
+        usable_group = np.bincount(group, ~usable, minlength=k) == 0
+        held_group = np.bincount(group, held, minlength=k) > 0
+        fit = turn.ok & ~held_group & usable_group & one_old & (a_old > 0) & (a_new > 0)
         s = np.where(fit & (not world_scale), np.sqrt(a_old / np.where(a_new > 0, a_new, 1.0)), 1.0)
-        c_new, c_old = corners.mean(uv.reshape(-1, 2)), corners.mean(ref)
-        angle = np.where(fit, turn.angle, 0.0)
+        c_new, c_old = by_group.mean(uv.reshape(-1, 2)), by_group.mean(ref)
+        angle = np.where(fit & ~several, turn.angle, 0.0)
         shift = np.where(fit[:, None], c_old - s[:, None] * _turned(c_new, angle), 0.0)
         moved = Similarity(s, angle, shift, fit)
-        uv = apply_similarity(uv.reshape(-1, 2), corners, moved).reshape(-1, 3, 2)
-        fresh = ~fit & ~held  # no old UVs to keep: laid out as without in_place
-        if not world_scale and fresh.any():
-            rows = fresh[island]
-            uv[rows] = _into_unit_square(uv[rows], 0.0)
+        uv = apply_similarity(uv.reshape(-1, 2), by_group, moved).reshape(-1, 3, 2)
+        fresh = ~fit[group] & ~held  # no old place to go to: laid out anew
+        if fresh.any():
+            uv = _beside(uv, island, n, fresh, ref, near, s[fit], world_scale, margin or _GROUP_GAP)
     if held.any():
         flat = uv.reshape(-1, 2)
         # pins on one UV (one pinned vertex, say) fix no rotation: such an island turns as
@@ -202,6 +220,78 @@ def place_in_uv_space(uv, island, n, *, locked, old, in_place, world_scale, aspe
         uv = flat.reshape(-1, 3, 2)
         uv[locked] = old[locked]
     return uv, held
+
+
+_GROUP_GAP = 0.02  # between islands shelved together in place, as a share of their size
+
+
+def _old_groups(island, n, corner_vertex, old, held):
+    """Per island (n,), its group (numbered from 0); the number of groups; and per group,
+    whether its faces lay in one island of the old UVs.
+
+    Old islands are the triangles joined by corners of the same vertex with the same old
+    UV; a group is the islands joined through old islands (an old island cut into several,
+    and those they share other old islands with). An island with locked corners
+    (``held``) is a group of its own; without ``corner_vertex``, every island is."""
+    if corner_vertex is None or n < 2:
+        return np.arange(n), n, np.ones(n, dtype=bool)
+    bits = np.ascontiguousarray(old.reshape(-1, 2) + 0.0).view(np.int64)  # (+ 0.0: -0.0 is 0.0)
+    key = np.column_stack([np.asarray(corner_vertex, dtype=np.int64).ravel(), bits])
+    _, corner_key = np.unique(key, axis=0, return_inverse=True)
+    corner_key = corner_key.reshape(-1, 3)
+    k = int(corner_key.max(initial=-1)) + 1
+    # the old islands: a triangle's corners joined
+    a, b = corner_key[:, :2].ravel(), corner_key[:, 1:].ravel()
+    joins = sp.coo_matrix((np.ones(len(a)), (a, b)), shape=(k, k))
+    _, old_island = csgraph.connected_components(joins, directed=False)
+    old_island = old_island[corner_key[:, 0]]
+    # the islands (0..n-1) joined to the old islands (n..) of their faces
+    free = ~held[island]
+    link = sp.coo_matrix((np.ones(int(free.sum())), (island[free], n + old_island[free])), shape=(n + k, n + k))
+    _, label = csgraph.connected_components(link, directed=False)
+    _, group = np.unique(label[:n], return_inverse=True)
+    group = group.ravel()
+    count = int(group.max(initial=-1)) + 1
+    pair = np.unique(group[island] * np.int64(k) + old_island)
+    return group, count, np.bincount(pair // k, minlength=count) == 1
+
+
+def _beside(uv, island, n, fresh, ref, near, density, world_scale: bool, gap_share: float):
+    """``uv`` (t, 3, 2) with the ``fresh`` (n,) bool islands (no old place to go to) on
+    shelves of their own: to the right of where the old UVs of the other islands were, at
+    their median scale ``density`` (scale factors of the islands put in place; the
+    islands' own size with ``world_scale``); fitted into [0, 1] as a fresh unwrap is when
+    no other island stays."""
+    uv = _shelved(uv, island, n, np.zeros(n, dtype=np.int64), fresh, gap_share)
+    rows = fresh[island]
+    staying = ~rows[:, None] & near
+    if not staying.any():
+        if not world_scale:
+            uv[rows] = _into_unit_square(uv[rows], 0.0)
+        return uv
+    scale = 1.0 if world_scale or not len(density) else float(np.median(density))
+    them = ref.reshape(-1, 3, 2)[staying]
+    lo, hi = them.min(axis=0), them.max(axis=0)
+    ours = uv[rows] * scale
+    gap = gap_share * float(np.sqrt(np.prod(hi - lo)))
+    uv[rows] = ours - ours.reshape(-1, 2).min(axis=0) + [hi[0] + gap, lo[1]]
+    return uv
+
+
+def _shelved(uv, island, n, group, moving, gap_share):
+    """``uv`` (t, 3, 2) with the ``moving`` (n,) bool islands shifted onto shelves, one set
+    of shelves per ``group`` (n,), ``gap_share`` of each group's size apart."""
+    corners = Islands.labelled(np.repeat(island, 3), n)
+    lo = np.stack([corners.min(uv[..., c].ravel()) for c in range(2)], axis=1)
+    hi = np.stack([-corners.min(-uv[..., c].ravel()) for c in range(2)], axis=1)
+    ids = np.flatnonzero(moving)
+    size = hi[ids] - lo[ids]
+    _, g = np.unique(group[ids], return_inverse=True)
+    g = g.ravel()
+    gap = gap_share * np.sqrt(np.bincount(g, np.prod(size, axis=1)))
+    shift = np.zeros((n, 2))
+    shift[ids] = _shelves(size, gap, g) - lo[ids]
+    return uv + shift[island][:, None, :]
 
 
 # ---------------------------------------------------------------------------- the solver's
@@ -324,23 +414,52 @@ def pack_islands(Y, islands: Islands, margin: float = 0.02, fixed=None):
     return Y + islands.expand(shift)
 
 
-def _shelves(size: np.ndarray, gap: float) -> np.ndarray:
-    """Lower-left corners for boxes (k, 2) on shelves, tallest first, rows ~ square."""
+def _shelves(size: np.ndarray, gap, group: np.ndarray | None = None) -> np.ndarray:
+    """Lower-left corners for boxes (k, 2) on shelves, tallest first, rows ~ square; with
+    ``group`` (k,) (numbered from 0), one set of shelves per group, from the origin, and
+    ``gap`` per group.
+
+    A shelf takes boxes while they fit in the row's width (at least one): where each
+    shelf ends is one search in the running widths, for every group at once, so the loop
+    runs once per shelf of the group with most shelves (about the square root of its
+    boxes), not once per box."""
     k = len(size)
-    if k == 1:
-        return np.zeros((1, 2))
-    # tallest first; heights within 1e-6 of the tallest's count as equal (islands alike up to
-    # rounding), so that rounding never reorders them: then by island number
-    height = np.round(size[:, 1] / max(float(size[:, 1].max()) * 1e-6, 1e-300))
-    order = np.lexsort((np.arange(k), -height))
-    width = max(float(size[:, 0].max()), float(np.sqrt(((size[:, 0] + gap) * (size[:, 1] + gap)).sum())))
+    group = np.zeros(k, dtype=np.int64) if group is None else group
+    n = int(group.max(initial=-1)) + 1
+    gap = np.broadcast_to(np.asarray(gap, dtype=np.float64), (n,))
+    # tallest first; heights within 1e-6 of the group's tallest count as equal (islands
+    # alike up to rounding), so that rounding never reorders them: then by island number
+    tallest = np.zeros(n)
+    np.maximum.at(tallest, group, size[:, 1])
+    height = np.round(size[:, 1] / np.maximum(tallest * 1e-6, 1e-300)[group])
+    order = np.lexsort((np.arange(k), -height, group))
+    g, w, h = group[order], size[order, 0], size[order, 1]
+    widest = np.zeros(n)
+    np.maximum.at(widest, g, w)
+    width = np.maximum(widest, np.sqrt(np.bincount(g, (w + gap[g]) * (h + gap[g]), minlength=n)))
+    first = np.searchsorted(g, np.arange(n))
+    end = np.append(first[1:], k)
+    run = np.cumsum(w + gap[g])
+    before = run - (w + gap[g])
+    before -= before[np.minimum(first, k - 1)][g]  # within the group, ahead of each box
+    # a box fits on the shelf that starts at box s while before + w <= before[s] + width:
+    # one ascending key over all groups, (group, right edge) in lexicographic (complex) order
+    key = g + 1j * (before + w)
+    starts = np.zeros(k, dtype=bool)
+    s, live = first.copy(), np.flatnonzero(first < end)
+    while live.size:  # one shelf of every group that has boxes left
+        starts[s[live]] = True
+        e = np.searchsorted(key, live + 1j * (before[s[live]] + width[live]), side="right")
+        s[live] = np.clip(e, s[live] + 1, end[live])
+        live = live[s[live] < end[live]]
+    shelf = np.cumsum(starts) - 1  # of every box, numbered over all groups
+    head = np.flatnonzero(starts)  # the first box of every shelf
+    x = before - before[head][shelf]
+    row = np.zeros(len(head))
+    np.maximum.at(row, shelf, h)
+    rise = np.cumsum(row + gap[g[head]])
+    below = rise - (row + gap[g[head]])
+    y = below - below[np.searchsorted(g[head], g[head])]  # from the group's first shelf
     out = np.zeros((k, 2))
-    x = y = row_h = 0.0
-    for i in order:  # one step per island
-        w, h = size[i]
-        if x > 0 and x + w > width:
-            x, y, row_h = 0.0, y + row_h + gap, 0.0
-        out[i] = (x, y)
-        x += w + gap
-        row_h = max(row_h, h)
+    out[order, 0], out[order, 1] = x, y[shelf]
     return out

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from isoparam_addon.solver import metrics, parametrize
+from isoparam_addon.solver.overlap import overlapping_faces
 from isoparam_eval import meshes as ex
 
 from .conftest import (
@@ -548,6 +549,41 @@ def test_unwrap_in_place_keeps_islands_where_they_were(scene):
     cuv_before = before[triangles(ob)]
     uv_area = lambda c: 0.5 * np.abs(np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])).sum()  # noqa: E731
     assert uv_area(cuv_after) == pytest.approx(uv_area(cuv_before), rel=1e-4)  # same texel density
+
+
+def _overlapping_triangles(ob) -> int:
+    """Pairs of the object's triangles (not sharing a vertex) that overlap in UV, any islands."""
+    _, F, cuv = triangle_uvs(ob)
+    return len(overlapping_faces(cuv, F, np.zeros(len(F), dtype=np.int64))[0])
+
+
+@pytest.mark.parametrize("primitive", ["monkey", "cube", "uv_sphere"])
+@pytest.mark.parametrize("before", ["its own UVs", "Smart UV Project"])
+def test_unwrap_in_place_does_not_put_charts_on_top_of_each_other(scene, primitive, before):
+    # a closed mesh is cut into charts that its old UVs do not have: those cut from one old
+    # island go there side by side, those across old islands beside the rest (they were
+    # each fitted onto the old UVs of their own faces, and landed on each other)
+    getattr(bpy.ops.mesh, f"primitive_{primitive}_add")()
+    ob = bpy.context.object
+    edit(ob)
+    if before == "Smart UV Project":
+        bpy.ops.uv.smart_project()
+    assert unwrap(pack=False) == {"FINISHED"}
+    object_mode()
+    assert _overlapping_triangles(ob) == 0
+
+
+def test_unwrapping_in_place_again_keeps_every_chart_where_it_is(scene):
+    bpy.ops.mesh.primitive_monkey_add()
+    ob = bpy.context.object
+    edit(ob)
+    assert unwrap() == {"FINISHED"}
+    object_mode()
+    before = corner_uvs(ob).astype(np.float64)
+    edit(ob)
+    assert unwrap(pack=False) == {"FINISHED"}
+    object_mode()
+    assert np.abs(corner_uvs(ob) - before).max() < 1e-5
 
 
 @pytest.mark.parametrize("world_scale", [False, True])
