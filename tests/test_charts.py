@@ -137,3 +137,13 @@ def test_rounding_of_the_input_does_not_move_the_charts():
     energy = [metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet for r in runs]
     assert np.ptp(energy) < 1e-4 * energy[0]
     assert len({r.n_islands for r in runs}) == 1
+
+
+def test_cutting_an_overlap_apart_does_not_chip_off_a_few_faces():
+    # where the banks of a cut touch near its end, the cheapest cut between the few faces
+    # that overlap went round them: a chart of one or two faces, again a little further on
+    V, F = ex.suzanne_closed()
+    r = parametrize(V, F, **CHARTS)
+    assert r.stats.overlap_cuts > 0  # (the case is exercised)
+    assert np.bincount(r.face_island).min() >= 8
+    assert metrics.self_overlaps(V, F, r.corner_uv).islands == 0

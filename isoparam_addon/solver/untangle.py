@@ -5,7 +5,8 @@ An island laid out near-isometrically can fold over its own boundary (a strip th
 more than a turn, an island with a hole opened by a slit): two places of the model then
 share texels. No flip shows it; :mod:`.overlap` finds it exactly. Here every such island
 is cut in two by the shortest seam that separates its overlapping layers: a minimum cut
-(:mod:`.mincut`) between the faces on either side of its largest overlap. The two parts
+(:mod:`.mincut`) between the two sides of the island, the faces clearly nearer to the one
+or to the other layer of its largest overlap. The two parts
 are solved again, alone (:func:`.resolve.solve_islands`), and put back
 (:func:`.resolve.combine`); parts that still overlap are cut again, a few rounds at most.
 All overlapping islands are cut in one flow problem: they are disconnected, so one flow
@@ -29,6 +30,7 @@ from .result import Parametrization
 __all__ = ["separating_cuts", "without_overlaps"]
 
 _ROUNDS = 6  # cut, solve again, check: at most this many times
+_BAND = 0.5  # a face twice as near to one layer as to the other is on its side of the cut
 
 
 def without_overlaps(first: Parametrization, problem: Problem, options: Options) -> Parametrization:
@@ -78,4 +80,19 @@ def separating_cuts(
     hops = csgraph.dijkstra(pair_graph, directed=False, unweighted=True, indices=i[best], min_only=True)
     reached = np.isfinite(hops)
     parity = np.where(reached, hops, 0).astype(np.int64) % 2
-    return minimum_cut(graph, reached & (parity == 0), reached & (parity == 1))
+    return minimum_cut(graph, *_sides(graph, reached & (parity == 0), reached & (parity == 1)))
+
+
+def _sides(graph: FaceGraph, layer: np.ndarray, other: np.ndarray):
+    """The faces (m,) bool on the side of one layer (over the surface, at most ``1 -
+    _BAND`` times as far from it as from the other), and those on the other's side: the
+    cut goes between, where a face is about as near to both.
+
+    Between the layers' faces alone, the cheapest cut would often go round the smaller
+    set: where the banks of a cut touch near its end, it chips those few faces off, the
+    rest closes onto itself a little further on, and so on for every round. Between the
+    two sides of the island the cut parts it where the layers part."""
+    G = graph.distances()
+    near = csgraph.dijkstra(G, directed=False, indices=np.flatnonzero(layer), min_only=True)
+    far = csgraph.dijkstra(G, directed=False, indices=np.flatnonzero(other), min_only=True)
+    return layer | (near < (1.0 - _BAND) * far), other | (far < (1.0 - _BAND) * near)
