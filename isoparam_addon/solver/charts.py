@@ -108,7 +108,8 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
         if options.split_overlaps and (result.islands.crossings > 0).any():
             result = without_overlaps(result, problem, options)
         return result
-    options = replace(options, refine_tol=min(options.refine_tol, _SETTLED))
+    settle = np.isin(owners.face, owners.charted)  # (only where charts are cut)
+    problem = replace(problem, refine_tol=np.where(settle, min(options.refine_tol, _SETTLED), options.refine_tol))
     cells = _cell_boundaries(owners.graph, owners.face, owners.charted[owners.curved[owners.charted]])
     if len(cells):
         result = solve(replace(problem, seams=np.vstack([seams, cells])), options)

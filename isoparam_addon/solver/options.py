@@ -33,8 +33,8 @@ class Options:
         :mod:`.refinement`) after the four steps. 0 is the paper's method.
     refine_tol : float
         The refinement stops an island once its energy fell by less than this (relative)
-        over 5 iterations. Charting (``charts``) refines to at most 1e-5 wherever it
-        cuts: it chooses its cuts from the refined layout (see :mod:`.charts`).
+        over 5 iterations. Charting (``charts``) refines the islands it cuts to 1e-5: it
+        chooses its cuts from the refined layout (see :mod:`.charts`).
     extra_cuts : int
         Islands that had to be cut automatically (closed, handles, holes) get up to this
         many more cuts while they help (see :mod:`.cuts`). 0: the shortest cut that
@@ -90,6 +90,10 @@ class Problem:
     start : (m, 3, 2) float or None
         A fold-free layout to refine instead of the four steps' (a search that cut a solved
         layout further goes on from it), mesh units, per face corner.
+    refine_tol : (m,) float or None
+        Per face, a stopping tolerance of the refinement below ``Options.refine_tol``: an
+        island stops at the smallest of its faces' (charting settles the islands it cuts,
+        and only those).
     """
 
     vertices: npt.ArrayLike
@@ -98,6 +102,7 @@ class Problem:
     inner_edges: npt.ArrayLike | None = None
     pins: tuple[npt.ArrayLike, npt.ArrayLike] | None = None
     start: np.ndarray | None = None
+    refine_tol: np.ndarray | None = None
 
     def pinned_vertices(self) -> np.ndarray | None:
         """The mesh vertices with a pinned corner, or None (no pins, or input that

@@ -72,6 +72,9 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
         proxy = proxy.result() if options.refine else None
         clock.lap("refine")  # waiting for the proxy, if it outlasted Step 3
     order = np.concatenate([plan.free_order, plan.anchors.ravel()])
+    tol = np.full(topo.n_islands, options.refine_tol)  # per island, the smallest of its faces'
+    if problem.refine_tol is not None:
+        np.minimum.at(tol, topo.face_island, problem.refine_tol)
 
     def refined(seed: np.ndarray, fixed: np.ndarray | None) -> Refinement:
         return refine(
@@ -81,7 +84,7 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
             islands,
             topo.he.twin,
             iterations=options.refine,
-            tol=options.refine_tol,
+            tol=tol,
             pinned=fixed,
             order=order,
             proxy=proxy,

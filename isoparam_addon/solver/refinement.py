@@ -366,7 +366,7 @@ class _Descent:
     """The state of one refinement: the layout, its Jacobians, per-island energies and
     gradient, which islands still descend, the L-BFGS memory and the proxy."""
 
-    def __init__(self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol: float, out: Refinement):
+    def __init__(self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol, out: Refinement):
         self.X, self.faces, self.islands, self.pinned, self.tol, self.out = X, faces, islands, pinned, tol, out
         self.proxy = proxy
         self.frames = proxy.frames
@@ -625,7 +625,7 @@ def refine(
     he_twin: np.ndarray | None,
     *,
     iterations: int = 1000,
-    tol: float = 2e-4,
+    tol: float | np.ndarray = 2e-4,
     arap: int = 10,
     pinned: np.ndarray | None = None,
     order: np.ndarray | None = None,
@@ -646,9 +646,9 @@ def refine(
         Twin half-edges of ``faces`` (boundary loops for the Tutte start).
     iterations : int
         At most this many descent steps (a safety net: islands stop when converged).
-    tol : float
-        An island stops when its energy fell by less than this, relative, over the last
-        ``_WINDOW`` iterations.
+    tol : float or (n_islands,) float
+        An island stops when its energy fell by less than this (its own, given per
+        island), relative, over the last ``_WINDOW`` iterations.
     arap : int
         ARAP steps before the descent, on islands near isometric (see
         :meth:`_Descent.local_global`).
@@ -775,7 +775,7 @@ def _go_on_alone(d: _Descent, iterations: int, done: int) -> None:
         sub,
         None,
         iterations=iterations,
-        tol=d.tol,
+        tol=d.tol if np.ndim(d.tol) == 0 else d.tol[active],
         arap=0,
         pinned=d.pinned[rows],
         order=order,
