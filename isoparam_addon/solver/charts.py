@@ -52,10 +52,10 @@ from .islands import first_rows
 from .mesh import HalfEdges, edge_mask
 from .mincut import FaceGraph, face_graph, minimum_cut, source_side
 from .options import Options, Problem
-from .pipeline import TOPOLOGY_WARNINGS, solve, topology_of, topology_warnings
+from .pipeline import solve, topology_of
 from .report import SolverWarning, charted, opened
 from .resolve import cut_further, pairs
-from .result import Parametrization
+from .result import TOPOLOGY_WARNINGS, Parametrization, topology_warnings
 from .topology import Topology
 from .untangle import separating_cuts, without_overlaps
 

@@ -29,10 +29,10 @@ from scipy.sparse import csgraph
 from .geometry import corner_signed_areas, face_areas
 from .mesh import HalfEdges, edge_mask
 from .options import Options, Problem
-from .pipeline import TOPOLOGY_WARNINGS, solve
+from .pipeline import solve
 from .report import lowered
 from .resolve import Part, combine, pairs, solve_islands
-from .result import Parametrization
+from .result import TOPOLOGY_WARNINGS, Parametrization
 
 __all__ = ["area_distortion", "next_paths", "with_extra_cuts"]
 

@@ -18,17 +18,16 @@ import numpy as np
 from ._parallel import background
 from .align import fit_rotation_scale, orient
 from .embed import Embedding, plan_elimination, spectral_embedding
-from .geometry import edge_lengths, signed_areas
+from .geometry import edge_lengths
 from .islands import Islands
 from .local import local_flattening
 from .mesh import unit_of
 from .options import Options, Problem
-from .overlap import boundary_crossings
 from .pins import Pins, layout_on_pins, pins_on_islands
 from .placement import place
 from .refinement import Proxy, Refinement, quadratic_proxy, refine
-from .report import IslandReport, Stats, Timings, defects, opened, warnings
-from .result import Parametrization, per_corner_and_vertex
+from .report import IslandReport, Stats, Timings
+from .result import Parametrization, assemble
 from .topology import Topology, build_topology
 from .weights import Flagged, reconstruction_weights
 
@@ -150,53 +149,13 @@ def _result(
 ) -> Parametrization:
     """The :class:`.Parametrization` of a solve from its layout over the split vertices,
     ``placed`` (in units of ``unit``)."""
-    # of the layout as returned (up to the power-of-two unit, which keeps every sign):
-    # moving an island rounds a face of 1e-26 the mesh's area to clockwise or nothing
-    flipped = signed_areas(placed, topo.faces) <= 0
-    corner_uv, uv, unused = per_corner_and_vertex(placed * unit, topo, len(V))
-    report.crossings = boundary_crossings(placed, topo)
-    stats = Stats(vertices=len(V), faces=len(F), split_vertices=len(topo.vertex_of), iterations=emb.iterations)
-    stats.count(report)
+    stats = Stats(vertices=len(V), faces=len(F), iterations=emb.iterations)
     if info is not None:
         stats.refine_iterations, stats.refine_energy = info.iterations, info.energy
     _embedding_timings(clock.timings, emb)
+    result = assemble(V, F, topo, placed, unit, report, emb.eigenvalues, emb.converged, stats, clock.timings)
     clock.timings.total = time.perf_counter() - clock.start
-    return Parametrization(
-        uv=uv,
-        corner_uv=corner_uv,
-        face_island=topo.face_island,
-        n_islands=topo.n_islands,
-        cut_edges=topo.cut_edges,
-        cut_islands=topo.cut_islands,
-        flipped=flipped,
-        eigenvalues=emb.eigenvalues,
-        converged=emb.converged,
-        islands=report,
-        vertices=V,
-        faces=F,
-        turned=topo.flipped,
-        warnings=topology_warnings(topo) + warnings(report, emb.converged, flipped, unused),
-        timings=clock.timings,
-        stats=stats,
-    )
-
-
-TOPOLOGY_WARNINGS = (
-    "duplicate_faces",
-    "non_manifold_edges",
-    "bowties",
-    "cut_closed",
-    "cut_handles",
-    "cut_holes",
-    "cut_nonorientable",
-)
-
-
-def topology_warnings(topo: Topology):
-    """The warnings about what the topology split or cut open."""
-    return defects(topo.defects) + opened(
-        topo.closed_islands, topo.handle_islands, topo.multi_boundary_islands, topo.nonorientable_islands
-    )
+    return result
 
 
 def _proxy(X, faces, islands: Islands, pinned, plan) -> Proxy:

@@ -16,15 +16,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .geometry import signed_areas
 from .islands import Islands, first_rows
 from .mesh import unit_of
 from .options import Options, Problem
-from .overlap import boundary_crossings
-from .pipeline import TOPOLOGY_WARNINGS, solve, topology_warnings
+from .pipeline import solve
 from .placement import pack_islands
-from .report import IslandReport, SolverWarning, warnings
-from .result import Parametrization, per_corner_and_vertex
+from .report import IslandReport, SolverWarning
+from .result import TOPOLOGY_WARNINGS, Parametrization, assemble
 from .topology import build_topology
 
 __all__ = ["Part", "carried_warnings", "combine", "cut_further", "pairs", "solve_islands"]
@@ -152,33 +150,13 @@ def combine(first: Parametrization, parts: list[Part], problem: Problem, options
     uv_split[topo.corner_vertex.ravel()] = corner_uv.reshape(-1, 2)
     if options.pack:
         uv_split = pack_islands(uv_split, Islands(topo.vertex_island, n), options.margin, report.held)
-    flipped = signed_areas(uv_split / unit_of(V), topo.faces) <= 0  # as returned (see pipeline.solve)
-    corner_uv, uv, unused = per_corner_and_vertex(uv_split, topo, len(V))
-    report.crossings = boundary_crossings(uv_split, topo)
-    stats.split_vertices = len(topo.vertex_of)
-    stats.count(report)
     if options.refine:  # the combined layout's energy, as the refinement measures it
         area = report.refine_area.sum()
         stats.refine_energy.append(float(report.refine_energy.sum() / max(area, 1e-300)))
-    timings = replace(first.timings, merge=first.timings.merge + time.perf_counter() - t0)
-    return Parametrization(
-        uv=uv,
-        corner_uv=corner_uv,
-        face_island=topo.face_island,
-        n_islands=n,
-        cut_edges=topo.cut_edges,
-        cut_islands=topo.cut_islands,
-        flipped=flipped,
-        eigenvalues=eigenvalues,
-        converged=converged,
-        islands=report,
-        vertices=V,
-        faces=F,
-        turned=topo.flipped,
-        warnings=topology_warnings(topo) + warnings(report, converged, flipped, unused),
-        timings=timings,
-        stats=stats,
-    )
+    unit = unit_of(V)
+    result = assemble(V, F, topo, uv_split / unit, unit, report, eigenvalues, converged, stats, first.timings)
+    result.timings = replace(first.timings, merge=first.timings.merge + time.perf_counter() - t0)
+    return result
 
 
 def _four_step_facts(report: IslandReport, first: Parametrization, parent: np.ndarray, islands: np.ndarray) -> None:

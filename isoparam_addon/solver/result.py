@@ -7,10 +7,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import metrics
-from .report import IslandReport, SolverWarning, Stats, Timings
+from .geometry import signed_areas
+from .overlap import boundary_crossings
+from .report import IslandReport, SolverWarning, Stats, Timings, defects, opened, warnings
 from .topology import Topology
 
-__all__ = ["Parametrization", "per_corner_and_vertex"]
+__all__ = ["TOPOLOGY_WARNINGS", "Parametrization", "assemble", "per_corner_and_vertex", "topology_warnings"]
 
 
 @dataclass
@@ -103,3 +105,64 @@ def per_corner_and_vertex(uv_split: np.ndarray, topo: Topology, n: int):
     used = first < len(uv_split)
     uv[used] = np.take(uv_split, first[used], axis=0)
     return corner_uv, uv, int(n - used.sum())
+
+
+def assemble(
+    V: np.ndarray,
+    F: np.ndarray,
+    topo: Topology,
+    layout: np.ndarray,
+    unit: float,
+    report: IslandReport,
+    eigenvalues: np.ndarray,
+    converged: np.ndarray,
+    stats: Stats,
+    timings: Timings,
+) -> Parametrization:
+    """The :class:`Parametrization` of a layout over the split vertices of ``topo``,
+    ``layout`` (n, 2) in units of ``unit`` (a power of two), with the per-island facts
+    gathered on the way: the corner and vertex UVs, folds and overlaps measured on the
+    layout as returned, the counts, and the warnings."""
+    # of the layout as returned (up to the power-of-two unit, which keeps every sign):
+    # moving an island rounds a face of 1e-26 the mesh's area to clockwise or nothing
+    flipped = signed_areas(layout, topo.faces) <= 0
+    corner_uv, uv, unused = per_corner_and_vertex(layout * unit, topo, len(V))
+    report.crossings = boundary_crossings(layout, topo)
+    stats.split_vertices = len(topo.vertex_of)
+    stats.count(report)
+    return Parametrization(
+        uv=uv,
+        corner_uv=corner_uv,
+        face_island=topo.face_island,
+        n_islands=topo.n_islands,
+        cut_edges=topo.cut_edges,
+        cut_islands=topo.cut_islands,
+        flipped=flipped,
+        eigenvalues=eigenvalues,
+        converged=converged,
+        islands=report,
+        vertices=V,
+        faces=F,
+        turned=topo.flipped,
+        warnings=topology_warnings(topo) + warnings(report, converged, flipped, unused),
+        timings=timings,
+        stats=stats,
+    )
+
+
+TOPOLOGY_WARNINGS = (
+    "duplicate_faces",
+    "non_manifold_edges",
+    "bowties",
+    "cut_closed",
+    "cut_handles",
+    "cut_holes",
+    "cut_nonorientable",
+)
+
+
+def topology_warnings(topo: Topology):
+    """The warnings about what the topology split or cut open."""
+    return defects(topo.defects) + opened(
+        topo.closed_islands, topo.handle_islands, topo.multi_boundary_islands, topo.nonorientable_islands
+    )
