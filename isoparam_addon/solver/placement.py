@@ -142,16 +142,18 @@ def place_in_uv_space(
         Put every island where its old UVs were: same centroid, the best-fitting
         rotation, and (unless ``world_scale``) the same UV area, so texel density stays.
         Islands whose old UVs have no area (a mesh never unwrapped), or hold a value that
-        is not finite or beyond ``FAR``, are laid out anew, fitted into [0, 1] unless
-        ``world_scale``. Islands that share an old island (see ``corner_vertex``) go
-        there together, side by side.
+        is not finite or beyond ``FAR``, are laid out anew: fitted into [0, 1] unless
+        ``world_scale``, or beside the islands that stay. Islands that share an old island
+        (see ``corner_vertex``) go there together, side by side.
     corner_vertex : (t, 3) int64, optional
         The mesh vertex of every corner. With ``in_place``, islands whose faces lay in one
         island of the old UVs (charts cut from it, or pieces cut apart where it overlapped
-        itself; transitively, where new and old islands cross) form a group, which is
-        packed on shelves and put where the group's old UVs were (centroid and area, no
-        turn), so that they do not land on top of each other. Without it every island is
-        a group of its own.
+        itself; transitively, where new and old islands cross) form a group: shelved in
+        rows shaped as the old island's box, and put in that box, centred, at the old
+        area if it fits (smaller if not), not turned, so that they land neither on each
+        other nor on the neighbours. A group whose faces lay across several old islands,
+        and islands without usable old UVs, are laid out anew, beside the islands that
+        stay. Without it every island is a group of its own.
     world_scale : bool
         Keep mesh units (1 UV unit = 1 world unit) instead of fitting into [0, 1].
     aspect : float, optional
@@ -186,9 +188,12 @@ def place_in_uv_space(
         # upright), size from the old area (texel density kept), centroid onto the old one
         group, k, one_old = _old_groups(island, n, corner_vertex, old, held)
         several = np.bincount(group, minlength=k) > 1
-        if several.any():
-            uv = _shelved(uv, island, n, group, several[group], margin or _GROUP_GAP)
         by_group = Islands.labelled(np.repeat(group[island], 3), k)
+        old_lo, old_hi = _box(ref, by_group)
+        if several.any():  # on shelves shaped as the old island's box
+            with np.errstate(divide="ignore", invalid="ignore"):
+                aspect = np.nan_to_num((old_hi - old_lo)[:, 0] / (old_hi - old_lo)[:, 1], nan=1.0, posinf=1.0)
+            uv = _shelved(uv, island, n, group, several[group], margin or _GROUP_GAP, aspect)
         turn = similarity_fit(uv.reshape(-1, 2), ref, by_group, every, scale=False)
         a_new = np.bincount(group[island], np.abs(corner_signed_areas(uv)), minlength=k)
         a_old = np.bincount(group[island], np.abs(corner_signed_areas(ref.reshape(-1, 3, 2))), minlength=k)
@@ -197,13 +202,22 @@ def place_in_uv_space(
         fit = turn.ok & ~held_group & usable_group & one_old & (a_old > 0) & (a_new > 0)
         s = np.where(fit & (not world_scale), np.sqrt(a_old / np.where(a_new > 0, a_new, 1.0)), 1.0)
         c_new, c_old = by_group.mean(uv.reshape(-1, 2)), by_group.mean(ref)
+        if several.any():  # a group's shelves stay within the old island's box, centred on it
+            new_lo, new_hi = _box(uv.reshape(-1, 2), by_group)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inside = np.nan_to_num(np.min((old_hi - old_lo) / (new_hi - new_lo), axis=1), nan=np.inf)
+            s = np.where(several & fit & (not world_scale), np.minimum(s, inside), s)
+            c_new = np.where(several[:, None], 0.5 * (new_lo + new_hi), c_new)
+            c_old = np.where(several[:, None], 0.5 * (old_lo + old_hi), c_old)
         angle = np.where(fit & ~several, turn.angle, 0.0)
         shift = np.where(fit[:, None], c_old - s[:, None] * _turned(c_new, angle), 0.0)
         moved = Similarity(s, angle, shift, fit)
         uv = apply_similarity(uv.reshape(-1, 2), by_group, moved).reshape(-1, 3, 2)
         fresh = ~fit[group] & ~held  # no old place to go to: laid out anew
         if fresh.any():
-            uv = _beside(uv, island, n, fresh, ref, near, s[fit], world_scale, margin or _GROUP_GAP)
+            # beside the islands that stay: where they went, and the held ones' old UVs
+            there = np.where(near[..., None] & held[island][:, None, None], old, uv)
+            uv = _beside(uv, island, n, fresh, there, near, s[fit], world_scale, margin or _GROUP_GAP)
     if held.any():
         flat = uv.reshape(-1, 2)
         # pins on one UV (one pinned vertex, say) fix no rotation: such an island turns as
@@ -233,7 +247,7 @@ def _old_groups(island, n, corner_vertex, old, held):
     UV; a group is the islands joined through old islands (an old island cut into several,
     and those they share other old islands with). An island with locked corners
     (``held``) is a group of its own; without ``corner_vertex``, every island is."""
-    if corner_vertex is None or n < 2:
+    if corner_vertex is None:
         return np.arange(n), n, np.ones(n, dtype=bool)
     bits = np.ascontiguousarray(old.reshape(-1, 2) + 0.0).view(np.int64)  # (+ 0.0: -0.0 is 0.0)
     key = np.column_stack([np.asarray(corner_vertex, dtype=np.int64).ravel(), bits])
@@ -256,12 +270,13 @@ def _old_groups(island, n, corner_vertex, old, held):
     return group, count, np.bincount(pair // k, minlength=count) == 1
 
 
-def _beside(uv, island, n, fresh, ref, near, density, world_scale: bool, gap_share: float):
+def _beside(uv, island, n, fresh, there, near, density, world_scale: bool, gap_share: float):
     """``uv`` (t, 3, 2) with the ``fresh`` (n,) bool islands (no old place to go to) on
-    shelves of their own: to the right of where the old UVs of the other islands were, at
-    their median scale ``density`` (scale factors of the islands put in place; the
-    islands' own size with ``world_scale``); fitted into [0, 1] as a fresh unwrap is when
-    no other island stays."""
+    shelves of their own, to the right of the islands that stay (``there`` (t, 3, 2): where
+    they are going, trusted where ``near``), at their median scale ``density`` (scale
+    factors of the islands put in place; the islands' own size with ``world_scale``, one
+    unit across when only held islands stay); fitted into [0, 1] as a fresh unwrap is
+    when no other island stays."""
     uv = _shelved(uv, island, n, np.zeros(n, dtype=np.int64), fresh, gap_share)
     rows = fresh[island]
     staying = ~rows[:, None] & near
@@ -269,29 +284,39 @@ def _beside(uv, island, n, fresh, ref, near, density, world_scale: bool, gap_sha
         if not world_scale:
             uv[rows] = _into_unit_square(uv[rows], 0.0)
         return uv
-    scale = 1.0 if world_scale or not len(density) else float(np.median(density))
-    them = ref.reshape(-1, 3, 2)[staying]
+    ours = uv[rows].reshape(-1, 2)
+    ours = ours - ours.min(axis=0)
+    if not world_scale:
+        ours *= float(np.median(density)) if len(density) else 1.0 / max(float(ours.max()), 1e-300)
+    them = there[staying]
     lo, hi = them.min(axis=0), them.max(axis=0)
-    ours = uv[rows] * scale
     gap = gap_share * float(np.sqrt(np.prod(hi - lo)))
-    uv[rows] = ours - ours.reshape(-1, 2).min(axis=0) + [hi[0] + gap, lo[1]]
+    uv[rows] = (ours + [hi[0] + gap, lo[1]]).reshape(-1, 3, 2)
     return uv
 
 
-def _shelved(uv, island, n, group, moving, gap_share):
+def _shelved(uv, island, n, group, moving, gap_share, aspect=None):
     """``uv`` (t, 3, 2) with the ``moving`` (n,) bool islands shifted onto shelves, one set
-    of shelves per ``group`` (n,), ``gap_share`` of each group's size apart."""
+    of shelves per ``group`` (n,), ``gap_share`` of each group's size apart, rows about
+    ``aspect`` (per group: width / height, 1 without) times as wide as the shelves are
+    tall."""
     corners = Islands.labelled(np.repeat(island, 3), n)
-    lo = np.stack([corners.min(uv[..., c].ravel()) for c in range(2)], axis=1)
-    hi = np.stack([-corners.min(-uv[..., c].ravel()) for c in range(2)], axis=1)
-    ids = np.flatnonzero(moving)
+    lo, hi = _box(uv.reshape(-1, 2), corners)
+    ids = np.flatnonzero(moving & (corners.size > 0))
     size = hi[ids] - lo[ids]
-    _, g = np.unique(group[ids], return_inverse=True)
+    kept, g = np.unique(group[ids], return_inverse=True)
     g = g.ravel()
     gap = gap_share * np.sqrt(np.bincount(g, np.prod(size, axis=1)))
     shift = np.zeros((n, 2))
-    shift[ids] = _shelves(size, gap, g) - lo[ids]
+    shift[ids] = _shelves(size, gap, g, None if aspect is None else aspect[kept]) - lo[ids]
     return uv + shift[island][:, None, :]
+
+
+def _box(points, groups: Islands):
+    """Per group, the lower and upper corners (k, 2) of its rows of ``points`` (r, 2)."""
+    lo = np.stack([groups.min(points[:, c]) for c in range(2)], axis=1)
+    hi = np.stack([-groups.min(-points[:, c]) for c in range(2)], axis=1)
+    return lo, hi
 
 
 # ---------------------------------------------------------------------------- the solver's
@@ -414,10 +439,11 @@ def pack_islands(Y, islands: Islands, margin: float = 0.02, fixed=None):
     return Y + islands.expand(shift)
 
 
-def _shelves(size: np.ndarray, gap, group: np.ndarray | None = None) -> np.ndarray:
-    """Lower-left corners for boxes (k, 2) on shelves, tallest first, rows ~ square; with
-    ``group`` (k,) (numbered from 0), one set of shelves per group, from the origin, and
-    ``gap`` per group.
+def _shelves(size: np.ndarray, gap, group: np.ndarray | None = None, aspect=None) -> np.ndarray:
+    """Lower-left corners for boxes (k, 2) on shelves, tallest first, rows ~ square (or
+    ``aspect`` times as wide as the shelves are tall); with ``group`` (k,) (numbered from
+    0), one set of shelves per group, from the origin, and ``gap`` and ``aspect`` per
+    group.
 
     A shelf takes boxes while they fit in the row's width (at least one): where each
     shelf ends is one search in the running widths, for every group at once, so the loop
@@ -436,7 +462,8 @@ def _shelves(size: np.ndarray, gap, group: np.ndarray | None = None) -> np.ndarr
     g, w, h = group[order], size[order, 0], size[order, 1]
     widest = np.zeros(n)
     np.maximum.at(widest, g, w)
-    width = np.maximum(widest, np.sqrt(np.bincount(g, (w + gap[g]) * (h + gap[g]), minlength=n)))
+    shape = np.ones(n) if aspect is None else np.clip(aspect, 1e-3, 1e3)
+    width = np.maximum(widest, np.sqrt(shape * np.bincount(g, (w + gap[g]) * (h + gap[g]), minlength=n)))
     first = np.searchsorted(g, np.arange(n))
     end = np.append(first[1:], k)
     run = np.cumsum(w + gap[g])
