@@ -21,7 +21,15 @@ import numpy as np
 
 from .geometry import corner_signed_areas
 
-__all__ = ["Overlaps", "boundary_crossings", "crossings", "overlapping_faces", "self_overlaps", "shared_area"]
+__all__ = [
+    "Overlaps",
+    "boundary_crossings",
+    "crossings",
+    "overlapping_faces",
+    "self_overlaps",
+    "shared_area",
+    "uv_points",
+]
 
 
 def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: float):
@@ -196,6 +204,23 @@ class Overlaps(NamedTuple):
         return float(self.area.sum() / uv_area) if uv_area > 0 else 0.0
 
 
+def uv_points(F: np.ndarray, cuv: np.ndarray) -> np.ndarray:
+    """One id per (mesh vertex, UV) point, for every face corner (m * 3,): corners that
+    share one meet there in UV space (the same UV to the bit, -0.0 as 0.0), numbered in
+    the order of (vertex, u bits, v bits).
+
+    A sort on three keys: ``np.unique(..., axis=0)`` on the same rows is 3x slower."""
+    bits = np.ascontiguousarray(np.asarray(cuv, dtype=np.float64).reshape(-1, 2) + 0.0).view(np.int64)
+    vertex = np.asarray(F, dtype=np.int64).ravel()
+    order = np.lexsort((bits[:, 1], bits[:, 0], vertex))
+    v, b = vertex[order], bits[order]
+    new = np.ones(len(order), dtype=bool)
+    new[1:] = (v[1:] != v[:-1]) | (b[1:] != b[:-1]).any(axis=1)
+    point = np.empty(len(order), dtype=np.int64)
+    point[order] = np.cumsum(new) - 1
+    return point
+
+
 def self_overlaps(F: np.ndarray, cuv: np.ndarray, face_island: np.ndarray, n_islands: int) -> Overlaps:
     """:class:`Overlaps` of any layout given per face corner, ``cuv`` (m, 3, 2) of mesh
     faces ``F`` (m, 3), islands ``face_island`` (m,): an island's boundary is where its
@@ -206,10 +231,8 @@ def self_overlaps(F: np.ndarray, cuv: np.ndarray, face_island: np.ndarray, n_isl
     if not m:
         empty = np.zeros(0, dtype=np.int64)
         return Overlaps(np.zeros(n_islands, dtype=np.int64), np.zeros(n_islands), (empty, empty))
-    # one id per (mesh vertex, UV) point: corners that share it meet there
     quv = np.ascontiguousarray(cuv.reshape(-1, 2), dtype=np.float64)
-    _, point = np.unique(np.column_stack([F.ravel(), quv.view(np.int64)]), axis=0, return_inverse=True)
-    point = point.ravel()
+    point = uv_points(F, cuv)
     he = HalfEdges(F, int(F.max()) + 1)
     h, t = np.arange(F.size), he.twin
     paired = t >= 0

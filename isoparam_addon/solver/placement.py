@@ -15,6 +15,7 @@ from scipy.sparse import csgraph
 
 from .geometry import corner_signed_areas
 from .islands import Islands
+from .overlap import uv_points
 
 __all__ = [
     "FAR",
@@ -249,10 +250,7 @@ def _old_groups(island, n, corner_vertex, old, held):
     (``held``) is a group of its own; without ``corner_vertex``, every island is."""
     if corner_vertex is None:
         return np.arange(n), n, np.ones(n, dtype=bool)
-    bits = np.ascontiguousarray(old.reshape(-1, 2) + 0.0).view(np.int64)  # (+ 0.0: -0.0 is 0.0)
-    key = np.column_stack([np.asarray(corner_vertex, dtype=np.int64).ravel(), bits])
-    _, corner_key = np.unique(key, axis=0, return_inverse=True)
-    corner_key = corner_key.reshape(-1, 3)
+    corner_key = uv_points(corner_vertex, old).reshape(-1, 3)
     k = int(corner_key.max(initial=-1)) + 1
     # the old islands: a triangle's corners joined
     a, b = corner_key[:, :2].ravel(), corner_key[:, 1:].ravel()
