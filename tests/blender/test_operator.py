@@ -573,6 +573,23 @@ def test_unwrap_in_place_does_not_put_charts_on_top_of_each_other(scene, primiti
     assert _overlapping_triangles(ob) == 0
 
 
+def test_charts_cut_from_one_old_island_stay_in_its_box(scene):
+    # Blender's cube comes with one island of UVs (a net); as a closed part it is cut into
+    # charts, which go into that island's box side by side, not each onto its own faces
+    bpy.ops.mesh.primitive_cube_add()
+    ob = bpy.context.object
+    before = corner_uvs(ob).astype(np.float64)
+    edit(ob)
+    assert unwrap(pack=False) == {"FINISHED"}
+    object_mode()
+    after = corner_uvs(ob).astype(np.float64)
+    _, F, cuv = triangle_uvs(ob)
+    assert metrics.uv_islands(F, cuv).max() + 1 > 1  # charts
+    assert np.all(after.min(axis=0) >= before.min(axis=0) - 1e-6)
+    assert np.all(after.max(axis=0) <= before.max(axis=0) + 1e-6)
+    assert _overlapping_triangles(ob) == 0
+
+
 def test_unwrapping_in_place_again_keeps_every_chart_where_it_is(scene):
     bpy.ops.mesh.primitive_monkey_add()
     ob = bpy.context.object
