@@ -424,8 +424,7 @@ def pack_islands(Y, islands: Islands, margin: float = 0.02, fixed=None):
     fixed = np.zeros(nI, dtype=bool) if fixed is None else fixed
     if fixed.all():
         return Y
-    lo = np.minimum.reduceat(Y, islands.start[:-1], axis=0)  # islands are contiguous row blocks
-    hi = np.maximum.reduceat(Y, islands.start[:-1], axis=0)
+    lo, hi = _box(Y, islands)
     size = hi - lo
     gap = margin * np.sqrt(max(float(np.prod(size, axis=1).sum()), 1e-300))
     free = np.flatnonzero(~fixed)
