@@ -70,6 +70,27 @@ def test_refinement_unfolds_a_folded_four_step_layout():
     assert r.distortion().edge_rms < 0.2
 
 
+def test_without_refinement_unfold_lays_out_again_only_the_islands_that_fold():
+    V, F, _ = ex.s_surface_random(600, 0)  # the four-step layout folds 104 triangles here
+    r = parametrize(V, F, unfold=True)
+    assert metrics.flipped(V, F, r.uv) == 0 and r.stats.restarted_conformal + r.stats.restarted_tutte == 1
+    assert r.stats.refine_iterations == 0 and any("laid out instead" in w.text for w in r.warnings)
+    Vp, Fp = ex.peaks(30)  # no fold: the paper's layout, bit for bit
+    paper = parametrize(Vp, Fp)
+    assert metrics.flipped(Vp, Fp, paper.uv) == 0
+    assert np.array_equal(parametrize(Vp, Fp, unfold=True).uv, paper.uv)
+
+
+def test_without_refinement_an_unfolded_island_is_fitted_to_its_pins():
+    V, F = ex.peaks(9)
+    assert parametrize(V, F).flipped.sum() > 0
+    targets = {0: (0.0, 0.0), 80: (3.0, 4.0)}  # two opposite grid corners: turn, scale and shift
+    r = parametrize(V, F, unfold=True, pins=_pins(F, targets))
+    for v, t in targets.items():
+        assert np.abs(r.corner_uv[F == v] - t).max() < 1e-9
+    assert r.stats.restarted_conformal == 1 and metrics.flipped(V, F, r.corner_uv) == 0
+
+
 def test_a_strongly_curved_island_restarts_from_a_conformal_map():
     V, F = ex.sphere_band()  # a long band around a sphere: the four-step layout folds half of it
     assert metrics.flipped(V, F, parametrize(V, F).uv) > 500
@@ -502,7 +523,7 @@ def test_a_fold_in_one_island_does_not_stop_another_from_reaching_its_pins():
     r = parametrize(V, F, inner_edges=Db, pins=pins, pack=False, refine=100)
     assert np.abs(r.corner_uv[pins[0]] - pins[1][pins[0]]).max() < 1e-9
     assert not any("could not all be reached" in w.text for w in r.warnings)
-    assert any("restarted 1 from a conformal map" in w.text for w in r.warnings)
+    assert any("laid out instead: 1 from a conformal map" in w.text for w in r.warnings)
     assert not r.flipped.any() and metrics.flipped(V, F, r.corner_uv) == 0
 
 

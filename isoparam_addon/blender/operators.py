@@ -56,7 +56,7 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         name="Refinement",
         description="Most iterations of isometric refinement after the four-step layout (symmetric "
         "Dirichlet, never folds). It stops once converged, so this only caps the time on hard islands. "
-        "0 is Sun & Hancock's method alone",
+        "0 is Sun & Hancock's method alone (an island where it folds is laid out by a conformal map instead)",
         default=1000,
         min=0,
         max=5000,

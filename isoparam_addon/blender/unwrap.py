@@ -401,6 +401,7 @@ def _solve(sel: mesh_io.Selection, opts: Options, strict: bool = False):
         pack=True,
         split_nonmanifold=not strict,
         refine=opts.refine,
+        unfold=True,  # Refinement 0: the paper's layout, but never a fold where a fold-free map exists
         pins=(hold, old) if hold.any() else None,
         inner_edges=sel.diagonals,
         charts=opts.charts,

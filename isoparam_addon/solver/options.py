@@ -31,6 +31,12 @@ class Options:
     refine : int
         Iterations of isometric refinement (symmetric Dirichlet, no folds; see
         :mod:`.refinement`) after the four steps. 0 is the paper's method.
+    unfold : bool
+        Without refinement (``refine=0``): an island whose four-step layout folds is laid
+        out again as the refinement would start it, by the lower-energy of a conformal
+        map and (where that folds too) a Tutte embedding, which never fold (islands
+        with pins included: the pins are fitted afterwards). False keeps the paper's
+        layout as it is. With refinement, such islands are always restarted so.
     refine_tol : float
         The refinement stops an island once its energy fell by less than this (relative)
         over 5 iterations. Charting (``charts``) refines the islands it cuts to 1e-5: it
@@ -64,6 +70,7 @@ class Options:
     max_iter: int = 40
     split_nonmanifold: bool = True
     refine: int = 0
+    unfold: bool = False
     refine_tol: float = 2e-4
     extra_cuts: int = 0
     charts: bool = False

@@ -25,7 +25,7 @@ from .mesh import unit_of
 from .options import Options, Problem
 from .pins import Pins, layout_on_pins, pins_on_islands
 from .placement import place
-from .refinement import Proxy, Refinement, quadratic_proxy, refine
+from .refinement import Proxy, Refinement, quadratic_proxy, refine, unfolded
 from .report import IslandReport, Stats, Timings
 from .result import Parametrization, assemble
 from .topology import Topology, build_topology
@@ -92,8 +92,12 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
     solve_refined = refined if options.refine else None
     held = reached = None
     info = None
+    if solve_refined is None and options.unfold:  # no folded island where a fold-free map exists
+        info = unfolded(X, topo.faces, Y, islands, topo.he.twin, order)
+        Y = info.uv
     if pins is not None:
-        Y, info, reached, held = layout_on_pins(Y, topo.faces, islands, pins, solve_refined)
+        Y, shaped, reached, held = layout_on_pins(Y, topo.faces, islands, pins, solve_refined)
+        info = shaped if shaped is not None else info
     elif solve_refined is not None:
         info = solve_refined(Y, None)
         Y = info.uv

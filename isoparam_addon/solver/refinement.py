@@ -59,7 +59,7 @@ from .mesh import unique_edges
 from .ordering import nested_dissection
 from .seeds import lscm, tutte
 
-__all__ = ["FaceFrames", "Proxy", "Refinement", "quadratic_proxy", "refine", "slim_weights"]
+__all__ = ["FaceFrames", "Proxy", "Refinement", "quadratic_proxy", "refine", "slim_weights", "unfolded"]
 
 _MEMORY = 8  # L-BFGS pairs
 _HANDOVER = 0.25  # once the islands still descending hold at most this share of the rows: own factor
@@ -310,18 +310,47 @@ def _factor(frames: FaceFrames, islands: Islands, pinned, perm, weights) -> Prox
     return Proxy(frames, weights, H.tocsr(), whisper, pinned, perm, lu)
 
 
-def _start(X, faces, x, he_twin, islands: Islands, frames: FaceFrames, per_face: Islands, pinned, order=None):
+def unfolded(X, faces, uv, islands: Islands, he_twin, order=None) -> Refinement:
+    """The layout ``uv`` (n, 2) with no descent, but every island that folds a face laid out
+    again as the refinement would start it (the lowest-energy fold-free layout among it,
+    a conformal map and a Tutte embedding, see :func:`_start`): the layout without
+    refinement (``refine=0``), never folded where a fold-free map exists. Islands that
+    only crush faces, and faces without 3D area, are left as they are."""
+    t0 = time.perf_counter()
+    k = islands.n
+    zero, none = np.zeros(k), np.zeros(k, dtype=bool)
+    out = Refinement(np.asarray(uv, dtype=np.float64), none, none, zero, zero, (zero, zero))
+    folds = signed_double_areas(out.uv, faces) <= 0
+    if folds.any():
+        frames = FaceFrames(X, faces)
+        per_face = Islands.labelled(islands.label[faces[:, 0]], k)
+        folded = per_face.sum(folds & ~frames.degenerate) > 0
+        if folded.any():
+            no_pins = np.zeros(len(X), dtype=bool)
+            out.uv, _, out.restarted_conformal, out.restarted_tutte = _start(
+                X, faces, out.uv, he_twin, islands, frames, per_face, no_pins, order, folded
+            )
+        out.folded = int((signed_double_areas(out.uv, faces) <= 0).sum())
+    out.seconds = time.perf_counter() - t0
+    return out
+
+
+def _start(
+    X, faces, x, he_twin, islands: Islands, frames: FaceFrames, per_face: Islands, pinned, order=None, poor=None
+):
     """The start of every island: its seed ``x`` (n, 2), unless the seed folds or crushes a
-    face (UV area below ``_COLLAPSED`` times its 3D area) and the island has no pins;
-    then the lowest-energy fold-free layout among the seed, a conformal map and (where
-    the conformal map folds or crushes too) a Tutte embedding.
+    face (UV area below ``_COLLAPSED`` times its 3D area) and the island has no pins (or,
+    if given, unless it is one of the islands ``poor`` (n_islands,) bool); then the
+    lowest-energy fold-free layout among the seed, a conformal map and (where the
+    conformal map folds or crushes too) a Tutte embedding.
 
     Returns the start, the islands that still fold, and those started from a conformal
     map and from a Tutte embedding, (n_islands,) bool each.
     """
     area2 = 2.0 * frames.area
     det = signed_double_areas(x, faces) / area2
-    poor = (per_face.sum(det <= _COLLAPSED) > 0) & (np.bincount(islands.label, pinned, minlength=islands.n) == 0)
+    if poor is None:
+        poor = (per_face.sum(det <= _COLLAPSED) > 0) & (np.bincount(islands.label, pinned, minlength=islands.n) == 0)
     none = np.zeros(islands.n, dtype=bool)
     if not poor.any():
         return x, per_face.sum(det <= 0) > 0, none, none

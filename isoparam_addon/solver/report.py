@@ -123,7 +123,8 @@ class IslandReport:
     reached : bool
         Its pins were all reached without folding (True without pins).
     conformal, tutte : bool
-        The refinement restarted it from a conformal map / a Tutte embedding.
+        Its four-step layout folded (or, refined, crushed faces): it was laid out from a
+        conformal map / a Tutte embedding instead.
     refine_energy, refine_area : float
         Symmetric Dirichlet energy and 3D area of its refined faces, mesh units (0 where
         not refined).
@@ -188,7 +189,8 @@ class Stats:
         first (empty without refinement); with extra cuts, the first solve's history
         followed by the final layout's energy.
     restarted_conformal, restarted_tutte : int
-        Islands the refinement restarted from a conformal map / a Tutte embedding.
+        Islands laid out from a conformal map / a Tutte embedding instead of their
+        four-step layout (it folded, or, refined, crushed faces).
     extra_cut_tries, extra_cut_edges : int
         Solves tried with more cuts, and edges cut beyond the shortest opening cut.
     overlap_cuts : int
@@ -359,7 +361,7 @@ def _step_warnings(islands: IslandReport, converged: np.ndarray) -> list[SolverW
     if sum(restarted.values()):
         seeds = " and ".join(f"{k} from a {name}" for name, k in restarted.items() if k)
         first = np.argmax(islands.conformal | islands.tutte)
-        template = f"the four-step layout folded on some islands; refinement restarted {seeds}"
+        template = f"the four-step layout folded on some islands; laid out instead: {seeds}"
         out.append(_warning("restarted", sum(restarted.values()), "island", first, template))
     # a start that crushed faces the descent could not open: the report's stretch shows
     # it, this says what to do about it

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from isoparam_addon.solver import metrics, parametrize
+from isoparam_addon.solver.geometry import corner_signed_areas
 from isoparam_addon.solver.overlap import overlapping_faces
 from isoparam_eval import meshes as ex
 
@@ -806,3 +807,17 @@ def test_charts_cut_a_closed_mesh_and_mark_seams_keeps_the_cuts(scene, capfd):
     V, F, again = triangle_uvs(ob)
     assert len(np.unique(metrics.uv_islands(F, again))) == charts
     assert metrics.distortion(V, F, again).flipped == 0
+
+
+def test_refinement_0_folds_no_triangle_of_a_closed_mesh(scene):
+    # the paper's four-step layout folds on some of Suzanne's charts; with Refinement 0 the
+    # operator lays those out by a conformal map instead, so that charts and overlap cuts
+    # work on a fold-free layout (on folds, overlap cuts shredded islands into thousands)
+    bpy.ops.mesh.primitive_monkey_add()
+    ob = bpy.context.object
+    edit(ob)
+    assert unwrap(refine=0) == {"FINISHED"}
+    object_mode()
+    _, F, cuv = triangle_uvs(ob)
+    assert (corner_signed_areas(cuv) <= 0).sum() == 0
+    assert metrics.uv_islands(F, cuv).max() + 1 < 60
