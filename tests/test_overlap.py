@@ -63,7 +63,12 @@ def test_an_island_that_overlaps_itself_is_found_and_cut_apart(make):
     assert cut.n_islands > 1 and cut.stats.overlap_cuts > 0
     assert not (cut.islands.crossings > 0).any() and not cut.flipped.any()
     assert metrics.self_overlaps(V, F, cut.corner_uv).islands == 0
-    assert not any(w.kind == "overlapping" for w in cut.warnings)
+    assert [w.kind for w in cut.warnings] == ["cut_apart"]  # said, as news
+    # with charts too: a disk cut apart is no chart (the note said "cut into charts ...,
+    # distortion 0.000", its energy read as a chart's that was none)
+    charted = parametrize(V, F, refine=1000, split_overlaps=True, charts=True)
+    assert charted.n_islands > 1 and [w.kind for w in charted.warnings] == ["cut_apart"]
+    assert charted.stats.charts == 0
     before = metrics.per_island(V, F, plain.corner_uv, plain.face_island).mean_symmetric_dirichlet
     after = metrics.per_island(V, F, cut.corner_uv, cut.face_island).mean_symmetric_dirichlet
     assert after <= before * 1.01

@@ -379,7 +379,11 @@ def _pack(context, solved, opts: Options, pin: bool, kept: list[_Kept]) -> None:
                     mesh_io.set_uv_selection(k.mesh, k.uv_selection)
 
 
-_NOTES = ("charts",)  # solver warnings that are news, not trouble: reported as INFO
+_NOTES = ("charts", "cut_apart")  # solver warnings that are news, not trouble: reported as INFO
+# what the solver says of the four-step layout: with refinement, which starts from it, the
+# refined layout is what counts (its folds, overlaps or stretch are warned about), so these
+# are news too; without, they are the layout's own trouble
+_FOUR_STEP = ("not_converged", "degenerate_scale", "degenerate_fans", "restarted")
 _OVERLAP = ("duplicate_face", "non_manifold_edge")  # what overlapping triangles raise
 _NOT_MANIFOLD = (*_OVERLAP, "non_manifold_vertex")  # what the solver splits when not strict
 _OVERLAP_WARNINGS = ("duplicate_faces", "non_manifold_edges")  # how the solver says it split them
@@ -492,11 +496,12 @@ def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
             )
             return None
         per_face, summary = metrics.face_stretch(sel.V, sel.F, uv)
-        warnings = _warnings(res, sel)
+        news = _NOTES + (_FOUR_STEP if opts.refine else ())
+        warnings = _warnings(res, sel, news)
         if overlap:  # the same cut in the triangulation's terms, which Select Non Manifold cannot show
             gone = {w.worded(_mesh_names(sel)) for w in res.warnings if w.kind in _OVERLAP_WARNINGS}
             warnings = [overlap] + [w for w in warnings if w not in gone]
-        notes = [w.worded(_mesh_names(sel)) for w in res.warnings if w.kind in _NOTES]
+        notes = [w.worded(_mesh_names(sel)) for w in res.warnings if w.kind in news]
         cuts = sel.vert_ids[res.cut_edges] if len(res.cut_edges) else np.zeros((0, 2), dtype=np.int64)
         solved.append(_Solved(ob, sel, uv, held, res.n_islands, per_face, summary, warnings, notes, cuts))
     return solved
@@ -521,13 +526,14 @@ def _write_stretch(me, sel: mesh_io.Selection, distortion: np.ndarray) -> None:
     mesh_io.write_face_colours(me, STRETCH_ATTRIBUTE, metrics.stretch_colours(worst), faces)
 
 
-def _warnings(res, sel: mesh_io.Selection) -> list[str]:
-    """The solver's warnings, with mesh faces and vertices named as Blender numbers them,
-    as they hold for what the operator writes: the solver holds a vertex whose corners are
-    pinned to different UVs at their mean, but pins never move here
-    (``place_in_uv_space`` puts every pinned corner back on its own UV)."""
+def _warnings(res, sel: mesh_io.Selection, news: tuple[str, ...]) -> list[str]:
+    """The solver's warnings but those of the kinds ``news`` (reported as notes), with mesh
+    faces and vertices named as Blender numbers them, as they hold for what the operator
+    writes: the solver holds a vertex whose corners are pinned to different UVs at their
+    mean, but pins never move here (``place_in_uv_space`` puts every pinned corner back on
+    its own UV)."""
     names = _mesh_names(sel)
-    out = [w.worded(names) for w in res.warnings if w.kind != "pin_conflict" and w.kind not in _NOTES]
+    out = [w.worded(names) for w in res.warnings if w.kind != "pin_conflict" and w.kind not in news]
     if res.stats.pin_conflicts:
         out.append(
             f"{counted(res.stats.pin_conflicts, 'pinned vertex has', 'pinned vertices have')} corners pinned "

@@ -53,7 +53,7 @@ from .mesh import HalfEdges, edge_mask
 from .mincut import FaceGraph, face_graph, minimum_cut, source_side
 from .options import Options, Problem
 from .pipeline import solve, topology_of
-from .report import SolverWarning, charted, opened
+from .report import SolverWarning, charted, cut_apart, opened
 from .resolve import cut_further, pairs
 from .result import TOPOLOGY_WARNINGS, Parametrization, topology_warnings
 from .topology import Topology
@@ -321,7 +321,7 @@ def _charted(result: Parametrization, owners: _Owners, budget: float) -> list[So
     how much they stretch, and how many are still over the budget."""
     energy, area, owner = _chart_energy(result, owners)
     pieces = np.bincount(owner, minlength=owners.topo.n_islands)
-    cut = np.flatnonzero(pieces > 1)
+    cut = np.intersect1d(np.flatnonzero(pieces > 1), owners.charted)  # (others were only cut apart)
     if not len(cut):
         return []
     total = np.bincount(owner, area, minlength=len(pieces))
@@ -372,4 +372,6 @@ def _warnings(result: Parametrization, owners: _Owners, budget: float) -> list[S
         now(topo.nonorientable_islands),
     )
     out += _charted(result, owners, budget)
-    return out + [w for w in result.warnings if w.kind not in TOPOLOGY_WARNINGS]
+    apart = np.setdiff1d(np.flatnonzero(pieces > 1), owners.charted)  # islands cut apart where they overlapped
+    out += cut_apart(result.face_island[first[apart]])
+    return out + [w for w in result.warnings if w.kind not in (*TOPOLOGY_WARNINGS, "cut_apart")]

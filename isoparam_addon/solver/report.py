@@ -57,6 +57,8 @@ class SolverWarning:
     ``cut_nonorientable`` non-orientable islands, cut (islands)
     ``extra_cuts``        edges cut further to lower distortion (edges; no first)
     ``charts``            charts that islands were cut into (charts; first: one of them)
+    ``cut_apart``         islands that overlapped themselves and were cut apart
+                          (islands; first: a piece of one)
     ``not_converged``     islands on which Step 3 missed its tolerance (islands)
     ``degenerate_scale``  islands whose Step 4 scale was clipped (islands; no first)
     ``degenerate_fans``   vertices with no exact reconstruction (vertices; no first)
@@ -269,6 +271,20 @@ def opened(closed, handles, holes, nonorientable) -> list[SolverWarning]:
             )
             out.append(_warning(kind, len(isl), "island", isl[0], template))
     return out
+
+
+def cut_apart(pieces: np.ndarray) -> list[SolverWarning]:
+    """The note on the islands that overlapped themselves and were cut apart
+    (:mod:`.untangle`): ``pieces`` (k,) int64, per such island the result's island that
+    holds its lowest-numbered face."""
+    n = len(pieces)
+    if not n:
+        return []
+    template = (
+        f"{counted(n, 'island', 'islands')} overlapped {'itself' if n == 1 else 'themselves'} in UV space and "
+        f"{'was' if n == 1 else 'were'} cut apart (first: {{first}})"
+    )
+    return [_warning("cut_apart", n, "island", pieces[0], template)]
 
 
 def defects(found) -> list[SolverWarning]:

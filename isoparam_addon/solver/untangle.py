@@ -21,9 +21,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
+from .islands import first_rows
 from .mincut import FaceGraph, face_graph, minimum_cut
 from .options import Options, Problem
 from .overlap import shared_area
+from .report import cut_apart
 from .resolve import carried_warnings, cut_further, pairs
 from .result import Parametrization
 
@@ -48,7 +50,10 @@ def without_overlaps(first: Parametrization, problem: Problem, options: Options)
         result = cut_further(result, problem, new, bad, options)
         result.stats.overlap_cuts += len(new)
     if result is not first:
-        result.warnings = carried_warnings(first, result)
+        whose = first.face_island[first_rows(result.face_island, result.n_islands)]  # each piece's island
+        apart = np.flatnonzero(np.bincount(whose, minlength=first.n_islands) > 1)
+        pieces = result.face_island[first_rows(first.face_island, first.n_islands)[apart]]
+        result.warnings = carried_warnings(first, result) + cut_apart(pieces)
     result.timings.untangle = first.timings.untangle + time.perf_counter() - t0
     result.timings.total = first.timings.total + result.timings.untangle
     return result
