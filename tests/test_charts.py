@@ -161,3 +161,12 @@ def test_an_island_cut_apart_where_it_overlaps_is_not_counted_as_charted():
     assert notes["charts"].text.startswith("1 island was cut into") and "(1 not a disk;" in notes["charts"].text
     assert notes["cut_apart"].count == 1 and r.face_island[len(Fs)] == notes["cut_apart"].first[0]
     assert not (r.islands.crossings > 0).any()
+
+
+def test_without_refinement_the_charts_note_points_to_the_refinement_not_to_seams():
+    # charts are cut until they meet the budget as laid out; unrefined, Suzanne's cannot
+    V, F = ex.suzanne_closed()
+    r = parametrize(V, F, refine=0, unfold=True, charts=True)
+    note = next(w for w in r.warnings if w.kind == "charts")
+    assert "still stretched beyond" in note.text and "(not refined: refinement lowers it)" in note.text
+    assert "mark seams" not in note.text

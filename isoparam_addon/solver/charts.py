@@ -137,7 +137,7 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     result.timings.charts = time.perf_counter() - t0 - first_solve - t_topology
     if options.split_overlaps and (result.islands.crossings > 0).any():
         result = without_overlaps(result, problem, options)
-    result.warnings = _warnings(result, owners, options.max_stretch)
+    result.warnings = _warnings(result, owners, options.max_stretch, options.refine > 0)
     result.stats.charts = int(len(np.unique(result.face_island[np.isin(owners.face, owners.charted)])))
     result.stats.chart_rounds = rounds
     result.timings.total = time.perf_counter() - t0
@@ -316,7 +316,7 @@ def _balls(result: Parametrization, graph: FaceGraph, charts: np.ndarray):
     return source, sink
 
 
-def _charted(result: Parametrization, owners: _Owners, budget: float) -> list[SolverWarning]:
+def _charted(result: Parametrization, owners: _Owners, budget: float, refined: bool) -> list[SolverWarning]:
     """The note on what was cut into charts: how many islands, why, into how many charts,
     how much they stretch, and how many are still over the budget."""
     energy, area, owner = _chart_energy(result, owners)
@@ -336,6 +336,7 @@ def _charted(result: Parametrization, owners: _Owners, budget: float) -> list[So
         energy=float((mean[cut] * total[cut]).sum() / max(total[cut].sum(), 1e-300)),
         over=int((mean[cut] > energy_budget(budget)).sum()),
         budget=budget,
+        refined=refined,
         first=int(first),
     )
 
@@ -350,7 +351,7 @@ def _extreme(value: np.ndarray, isl: np.ndarray, charts: np.ndarray, ufunc, empt
     return first[charts]
 
 
-def _warnings(result: Parametrization, owners: _Owners, budget: float) -> list[SolverWarning]:
+def _warnings(result: Parametrization, owners: _Owners, budget: float, refined: bool) -> list[SolverWarning]:
     """The result's warnings, with what the charts did in place of what the topology cut:
     the islands cut into several charts are named once, by why; those only opened (one
     chart, or pinned) as before."""
@@ -371,7 +372,7 @@ def _warnings(result: Parametrization, owners: _Owners, budget: float) -> list[S
         now(topo.multi_boundary_islands),
         now(topo.nonorientable_islands),
     )
-    out += _charted(result, owners, budget)
+    out += _charted(result, owners, budget, refined)
     apart = np.setdiff1d(np.flatnonzero(pieces > 1), owners.charted)  # islands cut apart where they overlapped
     out += cut_apart(result.face_island[first[apart]])
     return out + [w for w in result.warnings if w.kind not in (*TOPOLOGY_WARNINGS, "cut_apart")]

@@ -328,13 +328,22 @@ def lowered(added: int, before: np.ndarray, score: np.ndarray) -> list[SolverWar
 
 
 def charted(
-    islands: int, not_disks: int, curved: int, charts: int, energy: float, over: int, budget: float, first: int
+    islands: int,
+    not_disks: int,
+    curved: int,
+    charts: int,
+    energy: float,
+    over: int,
+    budget: float,
+    first: int,
+    refined: bool = True,
 ):
     """The note that says what was cut into charts (:mod:`.charts`): ``islands`` cut into
     ``charts`` in all, ``not_disks`` of them because they were not disks, ``curved`` disks
     because they were curved like closed parts (the others because they stretched more
     than ``budget``), their charts' mean symmetric Dirichlet ``energy`` per area, and how
-    many are still ``over`` the budget."""
+    many are still ``over`` the budget, and what would help: seams, or (not ``refined``)
+    refinement."""
     why = []
     if not_disks:
         why.append(f"{not_disks} not {'a disk' if not_disks == 1 else 'disks'}")
@@ -347,7 +356,9 @@ def charted(
         f"first: {{first}}), distortion {energy:.3f} (4 is isometric)"
     )
     if over:
-        template += f"; {over} still stretched beyond {budget:.3g}: mark seams there"
+        template += f"; {over} still stretched beyond {budget:.3g}" + (
+            ": mark seams there" if refined else " (not refined: refinement lowers it)"
+        )
     return [_warning("charts", charts, "island", first, template)]
 
 
