@@ -17,9 +17,9 @@ import bpy  # noqa: E402 - after the user folder is set
 METHODS = {
     "isoparam": lambda: bpy.ops.uv.isometric_unwrap(),
     "isoparam, no charts": lambda: bpy.ops.uv.isometric_unwrap(charts=False),
-    "isoparam (paper, no refinement)": lambda: bpy.ops.uv.isometric_unwrap(refine=0),
+    "isoparam, Refinement 0": lambda: bpy.ops.uv.isometric_unwrap(refine=0),
     "isoparam, Extra Cuts 0": lambda: bpy.ops.uv.isometric_unwrap(extra_cuts=0),
-    "isoparam (paper), Extra Cuts 0": lambda: bpy.ops.uv.isometric_unwrap(refine=0, extra_cuts=0),
+    "isoparam, Refinement 0, Extra Cuts 0": lambda: bpy.ops.uv.isometric_unwrap(refine=0, extra_cuts=0),
     "ANGLE_BASED": lambda: bpy.ops.uv.unwrap(method="ANGLE_BASED", margin=0.001),
     "CONFORMAL": lambda: bpy.ops.uv.unwrap(method="CONFORMAL", margin=0.001),
     # Blender's one-click charts (angle limit 66 degrees, its default)

@@ -64,7 +64,7 @@ def _cube():
 
 
 DEFAULT_MESHES = ["peaks41", "s_random", "cap", "saddle", "suzanne", "peaks100k"]
-DEFAULT_METHODS = ["isoparam", "isoparam (paper, no refinement)", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
+DEFAULT_METHODS = ["isoparam", "isoparam, Refinement 0", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
 
 
 def measure(name, V, F, seams, methods, repeat, slow_repeat, render_dir=None):
@@ -101,13 +101,13 @@ def measure(name, V, F, seams, methods, repeat, slow_repeat, render_dir=None):
             flush=True,
         )
         if render_dir is not None:
-            render(ob, render_dir / f"{name}_{method.split()[0]}_{len(rows)}.png", samples=16)
+            render(ob, render_dir / f"{name}_{method.split()[0].strip(',')}_{len(rows)}.png", samples=16)
     return rows
 
 
 def table(title, n_vertices, rows):
     ours = rows.get("isoparam", {}).get("seconds")
-    paper = rows.get("isoparam (paper, no refinement)", {}).get("seconds")
+    paper = rows.get("isoparam, Refinement 0", {}).get("seconds")
     lines = [
         f"### {title} ({n_vertices:,} vertices)",
         "",
@@ -187,7 +187,7 @@ def main(argv=None) -> int:
 
             fig, axes = plt.subplots(1, len(rows), figsize=(3.6 * len(rows), 3.2))
             for k, (ax, method) in enumerate(zip(np.atleast_1d(axes), rows), start=1):
-                ax.imshow(plt.imread(shots / f"{name}_{method.split()[0]}_{k}.png"))
+                ax.imshow(plt.imread(shots / f"{name}_{method.split()[0].strip(',')}_{k}.png"))
                 ax.set_title(method, fontsize=8)
                 ax.axis("off")
             fig.suptitle(title)

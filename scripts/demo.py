@@ -53,7 +53,7 @@ MESHES = {  # file stem: (title, mesh, camera elevation)
 }
 ORDER = [
     m
-    for m in ["isoparam", "isoparam (paper, no refinement)", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
+    for m in ["isoparam", "isoparam, Refinement 0", "MINIMUM_STRETCH", "ANGLE_BASED", "CONFORMAL"]
     if available(m)  # (MINIMUM_STRETCH: Blender 4.3 on)
 ]
 SPOT_ORDER = {"isoparam": "Isometric Unwrap", "SMART_UV": "Smart UV Project", "CONFORMAL": "Unwrap (Conformal)"}

@@ -64,8 +64,7 @@ def test_an_island_that_overlaps_itself_is_found_and_cut_apart(make):
     assert not (cut.islands.crossings > 0).any() and not cut.flipped.any()
     assert metrics.self_overlaps(V, F, cut.corner_uv).islands == 0
     assert [w.kind for w in cut.warnings] == ["cut_apart"]  # said, as news
-    # with charts too: a disk cut apart is no chart (the note said "cut into charts ...,
-    # distortion 0.000", its energy read as a chart's that was none)
+    # with charts too: a disk cut apart is no chart
     charted = parametrize(V, F, refine=1000, split_overlaps=True, charts=True)
     assert charted.n_islands > 1 and [w.kind for w in charted.warnings] == ["cut_apart"]
     assert charted.stats.charts == 0

@@ -244,7 +244,7 @@ class _Solved:
     distortion: np.ndarray  # (t,) per unwrapped triangle
     stretch: metrics.StretchSummary
     warnings: list
-    notes: list  # what the unwrap did that the artist may want to know (charts)
+    notes: list  # what the unwrap did that the artist may want to know (charts, cuts, what the four steps met)
     cuts: np.ndarray  # (k, 2) mesh vertex pairs of the edges it cut
 
 

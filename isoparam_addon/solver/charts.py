@@ -357,7 +357,9 @@ def _warnings(result: Parametrization, owners: _Owners, budget: float, refined: 
     chart, or pinned) as before."""
     topo = owners.topo
     pieces = np.bincount(owners.face[first_rows(result.face_island, result.n_islands)], minlength=topo.n_islands)
-    kept = topo.cut_islands[pieces[topo.cut_islands] == 1]
+    # the charts note names those cut into charts; the others (one chart, pinned, or only cut
+    # apart where they overlapped) are named as opened
+    kept = topo.cut_islands[(pieces[topo.cut_islands] == 1) | ~np.isin(topo.cut_islands, owners.charted)]
 
     first = first_rows(owners.face, topo.n_islands)
 

@@ -34,9 +34,9 @@ class Options:
     unfold : bool
         Without refinement (``refine=0``): an island whose four-step layout folds is laid
         out again as the refinement would start it, by the lower-energy of a conformal
-        map and (where that folds too) a Tutte embedding, which never fold (islands
-        with pins included: the pins are fitted afterwards). False keeps the paper's
-        layout as it is. With refinement, such islands are always restarted so.
+        map and (where that folds too) a Tutte embedding, whichever does not fold
+        (islands with pins included: the pins are fitted afterwards). False keeps the
+        paper's layout as it is. With refinement, such islands are always restarted so.
     refine_tol : float
         The refinement stops an island once its energy fell by less than this (relative)
         over 5 iterations. Charting (``charts``) refines the islands it cuts to 1e-5: it

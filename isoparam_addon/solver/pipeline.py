@@ -92,7 +92,7 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
     solve_refined = refined if options.refine else None
     held = reached = None
     info = None
-    if solve_refined is None and options.unfold:  # no folded island where a fold-free map exists
+    if solve_refined is None and options.unfold:  # folded islands laid out again, fold-free
         info = unfolded(X, topo.faces, Y, islands, topo.he.twin, order)
         Y = info.uv
     if pins is not None:

@@ -314,8 +314,9 @@ def unfolded(X, faces, uv, islands: Islands, he_twin, order=None) -> Refinement:
     """The layout ``uv`` (n, 2) with no descent, but every island that folds a face laid out
     again as the refinement would start it (the lowest-energy fold-free layout among it,
     a conformal map and a Tutte embedding, see :func:`_start`): the layout without
-    refinement (``refine=0``), never folded where a fold-free map exists. Islands that
-    only crush faces, and faces without 3D area, are left as they are."""
+    refinement (``refine=0``). An island stays as it is if neither map is fold-free (or
+    their solve fails); islands that only crush faces, and faces without 3D area, are
+    left as they are."""
     t0 = time.perf_counter()
     k = islands.n
     zero, none = np.zeros(k), np.zeros(k, dtype=bool)
@@ -339,9 +340,9 @@ def _start(
     X, faces, x, he_twin, islands: Islands, frames: FaceFrames, per_face: Islands, pinned, order=None, poor=None
 ):
     """The start of every island: its seed ``x`` (n, 2), unless the seed folds or crushes a
-    face (UV area below ``_COLLAPSED`` times its 3D area) and the island has no pins (or,
-    if given, unless it is one of the islands ``poor`` (n_islands,) bool); then the
-    lowest-energy fold-free layout among the seed, a conformal map and (where the
+    face (UV area below ``_COLLAPSED`` times its 3D area) and the island has no pins
+    (``poor`` (n_islands,) bool, if given, names the islands instead of this rule); then
+    the lowest-energy fold-free layout among the seed, a conformal map and (where the
     conformal map folds or crushes too) a Tutte embedding.
 
     Returns the start, the islands that still fold, and those started from a conformal

@@ -336,7 +336,7 @@ def charted(
     over: int,
     budget: float,
     first: int,
-    refined: bool = True,
+    refined: bool,
 ):
     """The note that says what was cut into charts (:mod:`.charts`): ``islands`` cut into
     ``charts`` in all, ``not_disks`` of them because they were not disks, ``curved`` disks

@@ -812,7 +812,7 @@ def test_charts_cut_a_closed_mesh_and_mark_seams_keeps_the_cuts(scene, capfd):
 def test_refinement_0_folds_no_triangle_of_a_closed_mesh(scene):
     # the paper's four-step layout folds on some of Suzanne's charts; with Refinement 0 the
     # operator lays those out by a conformal map instead, so that charts and overlap cuts
-    # work on a fold-free layout (on folds, overlap cuts shredded islands into thousands)
+    # work on a fold-free layout, and cut it into a few dozen islands at most
     bpy.ops.mesh.primitive_monkey_add()
     ob = bpy.context.object
     edit(ob)
