@@ -127,10 +127,9 @@ def test_a_torus_within_budget_is_only_opened_and_says_so():
 
 
 def test_rounding_of_the_input_does_not_move_the_charts():
-    # the cuts are chosen from the refined layout: it must have settled (refined to 1e-5
-    # where charts are cut), or rounding of the input moves where they go. At the
-    # default 2e-4, 4 of 20 such perturbations of spot gave 11 charts instead of 10 and
-    # moved the energy by up to 0.27%; now 10 charts in 30 of 30, within 4.1e-4
+    # the cuts are chosen from the refined layout: it must have settled where charts are
+    # cut (refined to 1e-5, and, near or over the budget, until it stops moving), or
+    # rounding of the input moves where they go
     V, F, _ = ex.load_obj(SPOT)
     rng = np.random.default_rng(7)
     runs = [parametrize(V * (1 + 1e-12 * rng.standard_normal(V.shape)), F, **CHARTS) for _ in range(8)]

@@ -75,6 +75,11 @@ _TIE = 1e-9  # distances this close (relative) are equal: the lowest-numbered fa
 # the next cut goes (rounding of the input then moved the charts found, and their
 # energy by up to 0.4%); at 1e-5 the layout has settled, for about 10% more time
 _SETTLED = 1e-5
+# ... and an island whose energy is over this share of the budget's excess over isometric,
+# which may be cut next, refines until its layout stops moving too (see
+# :meth:`.refinement._Descent.converged`): where it is most squeezed, which decides the cut,
+# converges slowest
+_DECIDING = 0.8
 
 
 @dataclass(frozen=True)
@@ -109,7 +114,11 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
             result = without_overlaps(result, problem, options)
         return result
     settle = np.isin(owners.face, owners.charted)  # (only where charts are cut)
-    problem = replace(problem, refine_tol=np.where(settle, min(options.refine_tol, _SETTLED), options.refine_tol))
+    problem = replace(
+        problem,
+        refine_tol=np.where(settle, min(options.refine_tol, _SETTLED), options.refine_tol),
+        settle_above=np.where(settle, 4.0 + _DECIDING * (energy_budget(options.max_stretch) - 4.0), np.inf),
+    )
     cells = _cell_boundaries(owners.graph, owners.face, owners.charted[owners.curved[owners.charted]])
     if len(cells):
         result = solve(replace(problem, seams=np.vstack([seams, cells])), options)

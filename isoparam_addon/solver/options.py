@@ -101,6 +101,10 @@ class Problem:
         Per face, a stopping tolerance of the refinement below ``Options.refine_tol``: an
         island stops at the smallest of its faces' (charting settles the islands it cuts,
         and only those).
+    settle_above : (m,) float or None
+        Per face, an energy per area above which the refinement stops an island only once
+        its layout has stopped moving too (the smallest of its faces'; inf: never):
+        charting reads where to cut from those layouts.
     """
 
     vertices: npt.ArrayLike
@@ -110,6 +114,7 @@ class Problem:
     pins: tuple[npt.ArrayLike, npt.ArrayLike] | None = None
     start: np.ndarray | None = None
     refine_tol: np.ndarray | None = None
+    settle_above: np.ndarray | None = None
 
     def pinned_vertices(self) -> np.ndarray | None:
         """The mesh vertices with a pinned corner, or None (no pins, or input that

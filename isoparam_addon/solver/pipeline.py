@@ -74,6 +74,10 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
     tol = np.full(topo.n_islands, options.refine_tol)  # per island, the smallest of its faces'
     if problem.refine_tol is not None:
         np.minimum.at(tol, topo.face_island, problem.refine_tol)
+    settle = None  # per island, the smallest of its faces'
+    if problem.settle_above is not None:
+        settle = np.full(topo.n_islands, np.inf)
+        np.minimum.at(settle, topo.face_island, problem.settle_above)
 
     def refined(seed: np.ndarray, fixed: np.ndarray | None) -> Refinement:
         return refine(
@@ -84,6 +88,7 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
             topo.he.twin,
             iterations=options.refine,
             tol=tol,
+            settle=settle,
             pinned=fixed,
             order=order,
             proxy=proxy,

@@ -32,7 +32,10 @@ search.
 **Stopping.** An island stops when its energy fell by less than ``tol`` (relative) over
 the last 5 iterations, or by less than a hundredth of that over the last one, or when no
 step along a descent direction lowers it; the
-iteration cap is a safety net, not the usual exit.
+iteration cap is a safety net, not the usual exit. An island whose layout decides
+something (where charting cuts next: ``settle``) must also have stopped moving: its
+energy can be flat while its most squeezed part, the slowest to converge, still creeps,
+and where that part stands would then depend on the iteration the energy test fired at.
 
 Islands are independent problems and are treated as such: each has its own start, ARAP
 acceptance, step length, line search, L-BFGS memory, proxy weights and stopping test
@@ -70,6 +73,7 @@ _NEAR = 1.1  # ... until it is below this times the isometric energy
 _REFRESH_DROP = 0.7  # factor the re-weighted proxy again once a far island's energy fell this much
 _REFRESH_EVERY = 20  # ... or after this many iterations
 _SLIM_STEPS = 30  # at most this many SLIM steps from a start far from isometric
+_STILL = 1e-3  # an island to settle stops once its faces' log area ratios moved less than this (RMS) over the window
 _SLIM_DROP = 0.3  # ... each lowering the energy by this much (relative)
 
 
@@ -396,8 +400,10 @@ class _Descent:
     """The state of one refinement: the layout, its Jacobians, per-island energies and
     gradient, which islands still descend, the L-BFGS memory and the proxy."""
 
-    def __init__(self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol, out: Refinement):
+    def __init__(self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol, settle, out: Refinement):
         self.X, self.faces, self.islands, self.pinned, self.tol, self.out = X, faces, islands, pinned, tol, out
+        self.settle = np.full(islands.n, np.inf) if settle is None else settle  # (see converged)
+        self.moves: list[np.ndarray] = []  # per face, log area ratio over the last iterations (to settle)
         self.proxy = proxy
         self.frames = proxy.frames
         self.area = proxy.frames.area
@@ -625,13 +631,27 @@ class _Descent:
     def converged(self) -> None:
         """Stop the islands whose energy fell by less than ``tol`` over the last
         ``_WINDOW`` iterations, or by less than ``tol / 100`` over the last one (an island
-        that was converged when the descent began)."""
+        that was converged when the descent began); an island above its ``settle`` energy
+        per area only once its faces' log area ratios also moved by less than ``_STILL``
+        (area-weighted RMS) over the window."""
         last = self.history[-1] if self.history else None
         self.history = [*self.history, self.E][-(_WINDOW + 1) :]
         if last is not None:
             self.active &= ~(last - self.E < 0.01 * self.tol * self.E)
+        if np.isfinite(self.settle).any():
+            a, b, c, d = self.J
+            self.moves = [*self.moves, np.log(np.abs(a * d - b * c) + 1e-300)][-(_WINDOW + 1) :]
         if len(self.history) > _WINDOW:
-            self.active &= ~(self.history[0] - self.E < self.tol * self.E)
+            stop = self.history[0] - self.E < self.tol * self.E
+            settling = self.E > self.settle * self.island_area
+            if settling.any():
+                if len(self.moves) > _WINDOW:
+                    change = self.moves[-1] - self.moves[0]
+                    rms = np.sqrt(self.per_face.sum(self.area * change * change) / np.maximum(self.island_area, 1e-300))
+                    stop &= ~settling | (rms < _STILL)
+                else:
+                    stop &= ~settling
+            self.active &= ~stop
 
 
 @dataclass
@@ -645,6 +665,7 @@ class _Carry:
     refreshed_at: np.ndarray
     reweighting: np.ndarray
     weights: np.ndarray
+    moves: list
 
 
 def refine(
@@ -656,6 +677,7 @@ def refine(
     *,
     iterations: int = 1000,
     tol: float | np.ndarray = 2e-4,
+    settle: np.ndarray | None = None,
     arap: int = 10,
     pinned: np.ndarray | None = None,
     order: np.ndarray | None = None,
@@ -679,6 +701,9 @@ def refine(
     tol : float or (n_islands,) float
         An island stops when its energy fell by less than this (its own, given per
         island), relative, over the last ``_WINDOW`` iterations.
+    settle : (n_islands,) float, optional
+        Per island, an energy per area above which it stops only once its layout has
+        settled too (see :meth:`_Descent.converged`); inf or None: never.
     arap : int
         ARAP steps before the descent, on islands near isometric (see
         :meth:`_Descent.local_global`).
@@ -715,7 +740,7 @@ def refine(
             X, faces, out.uv, he_twin, islands, proxy.frames, per_face, pinned, order
         )
     # islands that still fold, and islands with nothing free, are left as they are
-    d = _Descent(X, faces, x, islands, pinned, proxy, tol, out)
+    d = _Descent(X, faces, x, islands, pinned, proxy, tol, settle, out)
     d.begin(~stuck & (np.bincount(islands.label, ~pinned, minlength=k) > 0))
     if carry is None:
         d.local_global(arap)
@@ -727,6 +752,7 @@ def refine(
             carry.refreshed_at,
             carry.reweighting,
         )
+        d.moves = carry.moves
     out.energy += [float(e.sum()) / max(d.live_area, 1e-300) for e in d.trace]
     g = d.gradient(d.G)
     for it in range(1, iterations + 1):  # quasi-Newton steps, each one factored solve
@@ -796,6 +822,7 @@ def _go_on_alone(d: _Descent, iterations: int, done: int) -> None:
         refreshed_at=d.refreshed_at[active] - done,
         reweighting=d.reweighting[active],
         weights=d.proxy.weights[f],
+        moves=[m[f] for m in d.moves],
     )
     order = nested_dissection(X_sub, unique_edges(F_sub))
     result = refine(
@@ -806,6 +833,7 @@ def _go_on_alone(d: _Descent, iterations: int, done: int) -> None:
         None,
         iterations=iterations,
         tol=d.tol if np.ndim(d.tol) == 0 else d.tol[active],
+        settle=d.settle[active],
         arap=0,
         pinned=d.pinned[rows],
         order=order,

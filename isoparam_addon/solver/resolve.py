@@ -71,7 +71,10 @@ def solve_islands(problem: Problem, faces: np.ndarray, options: Options) -> Part
     pins = None if problem.pins is None else (np.asarray(problem.pins[0])[faces], np.asarray(problem.pins[1])[faces])
     start = None if problem.start is None else problem.start[faces]
     tol = None if problem.refine_tol is None else problem.refine_tol[faces]
-    part = Problem(V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins, start, tol)
+    settle = None if problem.settle_above is None else problem.settle_above[faces]
+    part = Problem(
+        V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins, start, tol, settle
+    )
     # split_nonmanifold: two wedges of an island around a vertex that other islands' faces
     # separated (with seams) meet at a bare vertex once those faces are left out
     return Part(solve(part, replace(options, pack=False, split_nonmanifold=True)), faces, used)
