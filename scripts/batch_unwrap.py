@@ -19,7 +19,7 @@ somewhere to write: ``-o`` (a file for one input, a folder for several) or ``--i
 
 Every option of the operator's redo panel is a flag (``--help`` lists them). Per file, a
 line says what happened: islands, stretch (worst and mean), flipped faces, islands that
-overlap themselves, the operator's warnings and the time; ``--json`` prints these as JSON
+overlap themselves, the operator's notes and warnings and the time; ``--json`` prints these as JSON
 lines on stdout and sends Blender's log to stderr. Exit status: 0 when every file was
 unwrapped (and, with ``--fail-stretch X``, none has a mean stretch above X), 1 otherwise,
 2 for bad arguments or a missing extension.
@@ -344,7 +344,8 @@ def describe(entry: dict) -> str:
         f"mean {entry['stretch_mean']:.4g}, {entry['flipped']} flipped, {entry['overlapping']} overlapping, "
         f"{entry['seconds']:.2f} s" + (f" -> {entry['output']}" if "output" in entry else "")
     )
-    return text + "".join(f"\n    warning: {w}" for w in entry["warnings"])
+    notes = "".join(f"\n    note: {n}" for n in entry.get("notes", []))
+    return text + notes + "".join(f"\n    warning: {w}" for w in entry["warnings"])
 
 
 def _child_argv(argv: list[str], inputs: list[Path]) -> list[str]:

@@ -172,6 +172,14 @@ def test_extra_cuts_option_reaches_the_operator(tmp_path):
     assert counts["6"] > counts["0"] > len(V)
 
 
+def test_the_line_per_file_gives_the_operators_notes(tmp_path):
+    V, F, _ = ex.box(4)  # closed: cut into charts, which the operator notes
+    write_obj(tmp_path / "box.obj", V, F)
+    code, out, err = run(tmp_path / "box.obj", "-o", tmp_path / "box_uv.obj")
+    assert code == 0, err
+    assert "\n    note: 'box" in out and "charts" in out
+
+
 def test_nothing_to_write_is_an_error(tmp_path):
     write_obj(tmp_path / "a.obj", *ex.peaks(7))
     write_obj(tmp_path / "b.obj", *ex.peaks(8))
