@@ -73,6 +73,7 @@ _NEAR = 1.1  # ... until it is below this times the isometric energy
 _REFRESH_DROP = 0.7  # factor the re-weighted proxy again once a far island's energy fell this much
 _REFRESH_EVERY = 20  # ... or after this many iterations
 _SLIM_STEPS = 30  # at most this many SLIM steps from a start far from isometric
+_BLOCKS = 8  # the proxy's factors are kept for at most this many groups of islands
 _STILL = 1e-3  # an island to settle stops once its faces' log area ratios moved less than this (RMS) over the window
 _SLIM_DROP = 0.3  # ... each lowering the energy by this much (relative)
 
@@ -256,6 +257,15 @@ class Refinement:
 
 
 @dataclass
+class _Block:
+    """A factor of the proxy's rows of some islands (islands are independent blocks of H)."""
+
+    islands: np.ndarray  # (n_islands,) bool
+    rows: np.ndarray  # their free rows, in elimination order
+    lu: object
+
+
+@dataclass
 class Proxy:
     """The descent's quadratic proxy ``H = 2 (K_w + diag(whisper))``, factored.
 
@@ -263,6 +273,9 @@ class Proxy:
     Laplacian itself, which depends on the mesh and the pins only, so :func:`.solve`
     factors it in a worker thread while Step 3 runs), and the whisper, a tiny multiple of
     the lumped mass per island, fixes the translation of islands without pins.
+
+    The factors are kept per group of islands (``blocks``): re-weighting some islands
+    factors their rows again, not every island's (at most ``_BLOCKS`` groups; beyond, one).
     """
 
     frames: FaceFrames
@@ -271,21 +284,34 @@ class Proxy:
     whisper: np.ndarray  # (n,)
     pinned: np.ndarray  # (n,) bool
     perm: np.ndarray  # the free vertices in elimination order
-    lu: object
+    blocks: list[_Block]
 
     def solve(self, g: np.ndarray) -> np.ndarray:
         """``H^{-1} g`` on the free rows (n, 2), zero on the pinned ones."""
-        if self.lu is None:
-            return np.zeros_like(g)
-        n = len(g)
-        slot = np.full(n, len(self.perm), dtype=np.int64)  # pinned rows read the zero row appended
-        slot[self.perm] = np.arange(len(self.perm))
-        y = solve_columns(self.lu, np.take(g, self.perm, axis=0))
-        return np.take(np.vstack([y, np.zeros((1, y.shape[1]))]), slot, axis=0)
+        out = np.zeros_like(g)
+        for block in self.blocks:  # a few groups of islands
+            if block.lu is not None:
+                out[block.rows] = solve_columns(block.lu, np.take(g, block.rows, axis=0))
+        return out
 
-    def reweighted(self, islands: Islands, weights: np.ndarray) -> Proxy:
-        """The proxy with other face weights (m,), factored again in the same order."""
-        return _factor(self.frames, islands, self.pinned, self.perm, weights)
+    def reweighted(self, islands: Islands, weights: np.ndarray, which: np.ndarray) -> Proxy:
+        """The proxy with other face weights (m,), which differ on the islands ``which``
+        (n_islands,) bool only: their rows are factored again, in the same order."""
+        proxy = _factor(self.frames, islands, self.pinned, self.perm, weights, factor=False)
+        blocks: list[_Block] = []
+        for block in self.blocks:
+            if not (block.islands & which).any():
+                blocks.append(block)
+                continue
+            blocks += [
+                _block(proxy.H, islands, self.perm, part)
+                for part in (block.islands & which, block.islands & ~which)
+                if part.any()
+            ]
+        if len(blocks) > _BLOCKS:  # scattered re-weighting: one factor again
+            blocks = [_block(proxy.H, islands, self.perm, np.ones(islands.n, dtype=bool))]
+        proxy.blocks = blocks
+        return proxy
 
 
 def quadratic_proxy(X, faces, islands: Islands, pinned=None, order=None, weights=None) -> Proxy:
@@ -299,7 +325,15 @@ def quadratic_proxy(X, faces, islands: Islands, pinned=None, order=None, weights
     return _factor(frames, islands, pinned, perm, np.ones(len(faces)) if weights is None else weights)
 
 
-def _factor(frames: FaceFrames, islands: Islands, pinned, perm, weights) -> Proxy:
+def _block(H: sp.csr_matrix, islands: Islands, perm: np.ndarray, which: np.ndarray) -> _Block:
+    """The factor of ``H``'s free rows (``perm``, in elimination order) of the islands
+    ``which`` (n_islands,) bool."""
+    rows = perm[which[islands.label[perm]]]
+    lu = splu(H[rows][:, rows].tocsc(), permc_spec="NATURAL") if len(rows) else None
+    return _Block(which, rows, lu)
+
+
+def _factor(frames: FaceFrames, islands: Islands, pinned, perm, weights, factor: bool = True) -> Proxy:
     K = frames.laplacian(weights)
     n = K.shape[0]
     # a whisper of the mass matrix pins the translations of islands without pins, scaled
@@ -309,9 +343,9 @@ def _factor(frames: FaceFrames, islands: Islands, pinned, perm, weights) -> Prox
     reg = 1e-9 * np.bincount(islands.label, K.diagonal(), minlength=islands.n) / size
     mean_mass = np.bincount(islands.label, mass, minlength=islands.n) / size
     whisper = (reg / np.maximum(mean_mass, 1e-300))[islands.label] * mass
-    H = 2.0 * (K + sp.diags(whisper))
-    lu = splu(H[perm][:, perm].tocsc(), permc_spec="NATURAL") if len(perm) else None
-    return Proxy(frames, weights, H.tocsr(), whisper, pinned, perm, lu)
+    H = (2.0 * (K + sp.diags(whisper))).tocsr()
+    every = np.ones(islands.n, dtype=bool)
+    return Proxy(frames, weights, H, whisper, pinned, perm, [_block(H, islands, perm, every)] if factor else [])
 
 
 def unfolded(X, faces, uv, islands: Islands, he_twin, order=None) -> Refinement:
@@ -471,7 +505,7 @@ class _Descent:
             return
         mine = self.per_face.expand(which) * np.ones(len(self.faces), dtype=bool)
         weights = np.where(mine, slim_weights(self.J), self.proxy.weights)
-        self.proxy = self.proxy.reweighted(self.islands, weights)
+        self.proxy = self.proxy.reweighted(self.islands, weights, which)
         self.refreshed_energy = np.where(which, self.E, self.refreshed_energy)
         self.refreshed_at = np.where(which, iteration, self.refreshed_at)
         # their curvature pairs describe the old proxy's error: forgotten
