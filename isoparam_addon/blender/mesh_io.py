@@ -12,6 +12,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..solver.mesh import pair_keys
+
 __all__ = [
     "Selection",
     "read_selection",
@@ -205,10 +207,10 @@ def mark_seams(mesh, edges: np.ndarray) -> int:
     mesh.edges.foreach_get("vertices", edge_verts)
     ends = np.sort(edge_verts.reshape(ne, 2).astype(np.int64), axis=1)
     n = int(max(ends.max(), np.max(edges))) + 1
-    key = ends[:, 0] * n + ends[:, 1]
+    key = pair_keys(ends[:, 0], ends[:, 1], n, ordered=True)
     order = np.argsort(key)
-    pairs = np.sort(np.asarray(edges, dtype=np.int64), axis=1)
-    want = pairs[:, 0] * n + pairs[:, 1]
+    pairs = np.asarray(edges, dtype=np.int64)
+    want = pair_keys(pairs[:, 0], pairs[:, 1], n)
     at = np.minimum(np.searchsorted(key[order], want), ne - 1)
     hit = order[at[key[order][at] == want]]
     seam = np.zeros(ne, dtype=bool)
@@ -276,7 +278,7 @@ def other_diagonals(sel: Selection) -> Selection | None:
     total = loop_total[per_poly]
     inner = _diagonals(tri_loops, np.arange(len(tri_poly)), total)
     n = len(sel.V)
-    key = np.minimum(F, F[:, [1, 2, 0]]) * n + np.maximum(F, F[:, [1, 2, 0]])  # (t, 3) sides
+    key = pair_keys(F, F[:, [1, 2, 0]], n)  # (t, 3) sides
     diag = np.unique(np.stack([key[inner], per_poly[np.nonzero(inner)[0]]], axis=1), axis=0)  # once per face
     shared, count = np.unique(diag[:, 0], return_counts=True)
     clash = np.isin(diag[:, 0], np.concatenate([key[~inner], shared[count > 1]]))

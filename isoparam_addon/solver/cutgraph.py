@@ -11,7 +11,7 @@ from scipy.sparse.linalg import splu
 
 from .errors import SolverError
 from .geometry import edge_lengths, face_areas
-from .mesh import HalfEdges, orientation, split
+from .mesh import HalfEdges, orientation, pair_keys, split
 
 __all__ = ["cut_to_disks"]
 
@@ -45,7 +45,7 @@ def cut_to_disks(Vu, Fs, vertex_of, he, he0, face_island, todo, area, inner, fli
         n = len(Vu)
         ev0 = he0.edge_vertices[keys]
         ev = np.sort(vertex_of[sv[hsub.edge_vertices]], axis=1)
-        inner_sub = np.isin(ev[:, 0] * np.int64(n) + ev[:, 1], ev0[:, 0] * np.int64(n) + ev0[:, 1])
+        inner_sub = np.isin(pair_keys(ev[:, 0], ev[:, 1], n), pair_keys(ev0[:, 0], ev0[:, 1], n))
     n_islands = len(todo)
     X = Vu[vertex_of[sv]]
     cut = _cut_graph(X, Fsub, hsub, isl_sub, todo, inner_sub, keep[vertex_of[sv]])
@@ -183,11 +183,11 @@ class _EdgeGraph:
         self.e_isl[he.edge] = np.repeat(face_island, 3)
         self.v_isl = np.full(ns, -1, dtype=np.int64)
         self.v_isl[Fs.ravel()] = np.repeat(face_island, 3)
-        self.key = ev[:, 0] * np.int64(ns) + ev[:, 1]  # sorted: edges are numbered by key
+        self.key = pair_keys(ev[:, 0], ev[:, 1], ns, ordered=True)  # sorted: edges are numbered by key
 
     def edges(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """The edge numbers of the vertex pairs (a, b) (each an edge)."""
-        return np.searchsorted(self.key, np.minimum(a, b) * np.int64(self.ns) + np.maximum(a, b))
+        return np.searchsorted(self.key, pair_keys(a, b, self.ns))
 
 
 def _roots(g: _EdgeGraph, closed: np.ndarray, keep: np.ndarray, n_islands: int) -> np.ndarray:
@@ -230,12 +230,8 @@ def _tree_cotree(g: _EdgeGraph, he, face_island, todo, inner, sources) -> np.nda
     weight[inner[e]] = 0.5 * g.tiny + 1e-300  # below every other: diagonals are crossed, not cut
     dual = sp.coo_matrix((weight, (h // 3, he.twin[h] // 3)), shape=(m, m)).tocsr()
     tree = csgraph.minimum_spanning_tree(dual).tocoo()
-    # int64 before the product: scipy's rows are int32, and numpy 1.26 (Blender's) keeps
-    # int32 * np.int64(m) in int32 when m fits; past 46,341 faces the keys wrapped around
-    r, c = tree.row.astype(np.int64), tree.col.astype(np.int64)
-    fkey = np.sort(np.minimum(r, c) * m + np.maximum(r, c))
-    f, t = h // 3, he.twin[h] // 3
-    hkey = np.minimum(f, t) * np.int64(m) + np.maximum(f, t)
+    fkey = np.sort(pair_keys(tree.row, tree.col, m))  # (scipy's rows are int32)
+    hkey = pair_keys(h // 3, he.twin[h] // 3, m)
     crossed = np.zeros(he.n_edges, dtype=bool)
     if fkey.size:
         pos = np.minimum(np.searchsorted(fkey, hkey), fkey.size - 1)

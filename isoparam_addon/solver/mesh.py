@@ -36,6 +36,7 @@ __all__ = [
     "face_components",
     "fans",
     "orientation",
+    "pair_keys",
     "split",
     "unique_edges",
     "unit_of",
@@ -50,6 +51,20 @@ def unit_of(V: np.ndarray) -> float:
     if not (np.isfinite(size) and size > 0):
         return 1.0
     return float(2.0 ** np.round(np.log2(size)))
+
+
+def pair_keys(a, b, n: int, ordered: bool = False) -> np.ndarray:
+    """One int64 key per pair ``(a[i], b[i])`` of numbers below ``n``: ``a * n + b``, of the
+    smaller first unless ``ordered``. Equal keys, equal pairs.
+
+    Computed in int64 whatever the inputs' type: numpy 1.x (Blender's) keeps an int32 array
+    times an int64 scalar in int32, and csgraph's predecessors and labels (and arrays made
+    on Windows) are int32, so past n = 46,341 the keys would wrap around.
+    """
+    a, b = np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64)
+    if not ordered:
+        a, b = np.minimum(a, b), np.maximum(a, b)
+    return a * np.int64(n) + b
 
 
 def _array(x, name: str, dtype) -> np.ndarray:
@@ -207,7 +222,7 @@ class HalfEdges:
         a = F.ravel()
         b = rotate_faces(F).ravel()
         lo, hi = np.minimum(a, b), np.maximum(a, b)
-        key = lo * np.int64(n) + hi
+        key = pair_keys(lo, hi, n, ordered=True)
         # half-edges of ``excluded`` faces (m,) bool have an edge but no twin, and do not count
         out = np.zeros(len(a), dtype=bool) if excluded is None else np.repeat(excluded, 3)
         order = np.argsort(key, kind="stable") if excluded is None else np.lexsort((out, key))
@@ -334,8 +349,8 @@ def edge_mask(he: HalfEdges, n: int, seams, what: str = "seams") -> np.ndarray:
     bad = np.flatnonzero(((S < 0) | (S >= n)).any(axis=1))
     if bad.size:
         raise offenders("seam", f"index a vertex outside 0..{n - 1}", what.rstrip("s"), bad, edges=S[bad])
-    key = np.minimum(S[:, 0], S[:, 1]) * np.int64(n) + np.maximum(S[:, 0], S[:, 1])
-    ekey = he.edge_vertices[:, 0] * np.int64(n) + he.edge_vertices[:, 1]
+    key = pair_keys(S[:, 0], S[:, 1], n)
+    ekey = pair_keys(he.edge_vertices[:, 0], he.edge_vertices[:, 1], n, ordered=True)
     pos = np.searchsorted(ekey, key)
     pos = np.minimum(pos, len(ekey) - 1)
     hit = ekey[pos] == key

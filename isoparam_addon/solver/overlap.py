@@ -20,6 +20,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .geometry import corner_signed_areas
+from .mesh import pair_keys
 
 __all__ = [
     "Overlaps",
@@ -65,7 +66,7 @@ def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: flo
     i, j = item[a], item[b]
     i, j = np.minimum(i, j), np.maximum(i, j)
     keep = i != j
-    pair = np.unique(i[keep] * np.int64(k) + j[keep])
+    pair = np.unique(pair_keys(i[keep], j[keep], k, ordered=True))
     return pair // k, pair % k
 
 

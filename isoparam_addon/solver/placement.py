@@ -15,6 +15,7 @@ from scipy.sparse import csgraph
 
 from .geometry import corner_signed_areas
 from .islands import Islands
+from .mesh import pair_keys
 from .overlap import uv_points
 
 __all__ = [
@@ -264,7 +265,7 @@ def _old_groups(island, n, corner_vertex, old, held):
     _, group = np.unique(label[:n], return_inverse=True)
     group = group.ravel()
     count = int(group.max(initial=-1)) + 1
-    pair = np.unique(group[island] * np.int64(k) + old_island)
+    pair = np.unique(pair_keys(group[island], old_island, k, ordered=True))
     return group, count, np.bincount(pair // k, minlength=count) == 1
 
 
