@@ -35,7 +35,8 @@ Summary (:func:`distortion` returns all of them):
     global scale; 4 for an isometry (Smith & Schaefer 2015).
 ``flipped``
     Faces whose UV orientation disagrees with their island's area majority, plus faces
-    collapsed to zero UV area.
+    collapsed to zero UV area; each island oriented across the edges its faces share in
+    UV, so that input winding does not count (:func:`folded`).
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ from scipy.sparse import csgraph
 
 from .geometry import corner_signed_areas, next_corner, triangles
 from .islands import Islands
-from .mesh import HalfEdges
+from .mesh import HalfEdges, orientation
 
 __all__ = [
     "corner_uvs",
@@ -61,6 +62,7 @@ __all__ = [
     "stretch",
     "symmetric_dirichlet",
     "flipped",
+    "folded",
     "uv_islands",
     "Distortion",
     "distortion",
@@ -204,17 +206,34 @@ def flipped(V, F, uv, face_island=None) -> int:
     """Faces folded against their island's orientation, or collapsed to zero UV area."""
     F = np.asarray(F, dtype=np.int64)
     cuv = corner_uvs(F, uv)
-    signed = corner_signed_areas(cuv)
     if face_island is None:
         face_island = uv_islands(F, cuv)
-    major = np.bincount(face_island, signed) >= 0
-    sign_ok = np.where(major[face_island], signed > 0, signed < 0)
-    return int((~sign_ok).sum())
+    return int(folded(F, cuv, face_island).sum())
 
 
-def uv_islands(F: np.ndarray, cuv: np.ndarray) -> np.ndarray:
-    """Faces connected across edges whose UVs agree on both sides, (m,) labels."""
+def folded(F: np.ndarray, cuv: np.ndarray, face_island: np.ndarray) -> np.ndarray:
+    """Per face (m,) bool: folded against its island's orientation, or collapsed to zero
+    UV area. The island is oriented across the edges its faces share in UV (both sides,
+    same UVs), so a face the input winds against its neighbours, but laid out alongside
+    them, is not folded (input winding is not the layout's business); of the island's two
+    orientations, the one most of its UV area agrees with."""
     F = np.asarray(F, dtype=np.int64)
+    m = len(F)
+    signed = corner_signed_areas(cuv)
+    if not m:
+        return np.zeros(0, dtype=bool)
+    he, h, agree = _uv_joins(F, cuv)
+    k = int(face_island.max()) + 1
+    reverse, _ = orientation(F, he, face_island, k, np.ones(m), tree_only=h[agree])
+    signed = np.where(reverse, -signed, signed)
+    major = np.bincount(face_island, signed, minlength=k) >= 0
+    return ~np.where(major[face_island], signed > 0, signed < 0)
+
+
+def _uv_joins(F: np.ndarray, cuv: np.ndarray):
+    """The half-edges of ``F`` (:class:`.mesh.HalfEdges`), those with a twin of higher
+    number, ``h`` (k,), and which of them join their two faces in UV, ``agree`` (k,) bool:
+    the same UVs at both ends on both sides."""
     he = HalfEdges(F, int(F.max()) + 1)
     h = np.flatnonzero(he.twin > np.arange(F.size))
     t = he.twin[h]
@@ -224,6 +243,14 @@ def uv_islands(F: np.ndarray, cuv: np.ndarray) -> np.ndarray:
     ta = np.where(same_dir, t, next_corner(t))
     tb = np.where(same_dir, next_corner(t), t)
     agree = np.all(quv[ta] == quv[h], axis=1) & np.all(quv[tb] == quv[next_corner(h)], axis=1)
+    return he, h, agree
+
+
+def uv_islands(F: np.ndarray, cuv: np.ndarray) -> np.ndarray:
+    """Faces connected across edges whose UVs agree on both sides, (m,) labels."""
+    F = np.asarray(F, dtype=np.int64)
+    he, h, agree = _uv_joins(F, cuv)
+    t = he.twin[h]
     m = len(F)
     g = sp.coo_matrix((np.ones(agree.sum()), (h[agree] // 3, t[agree] // 3)), shape=(m, m))
     return csgraph.connected_components(g, directed=False)[1]
@@ -350,12 +377,7 @@ def per_island(V, F, uv, face_island=None) -> IslandDistortion:
         linf = groups.max(np.where(ok, big_inv, -np.inf))
         worse = np.maximum(big_inv, np.where(small_inv > 0, 1.0 / small_inv, np.inf))  # max(sigma1, 1/sigma2)
         stretch = groups.sum(np.where(w > 0, worse * w, 0.0)) / A3
-    flips = np.zeros(k, dtype=np.int64)
-    if len(F):
-        signed = corner_signed_areas(cuv)
-        major = groups.sum(signed) >= 0
-        bad = ~np.where(major[label], signed > 0, signed < 0)
-        flips = np.bincount(label[bad], minlength=k)
+    flips = np.bincount(label[folded(F, cuv, label)], minlength=k)
     has = A3 > 0
     total = float(A3[has].sum())
     finite = has & np.isfinite(scale) & (scale > 0)

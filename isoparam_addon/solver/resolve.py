@@ -16,6 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .geometry import signed_double_areas
 from .islands import Islands, first_rows
 from .mesh import unit_of
 from .options import Options, Problem
@@ -151,6 +152,12 @@ def combine(first: Parametrization, parts: list[Part], problem: Problem, options
         stats.refine_iterations = max(stats.refine_iterations, result.stats.refine_iterations)
     uv_split = np.zeros((len(topo.vertex_of), 2))
     uv_split[topo.corner_vertex.ravel()] = corner_uv.reshape(-1, 2)
+    # an island whose input winding is inconsistent is oriented by the area of its faces
+    # as given, which a part solved alone can weigh otherwise: its layout is then the
+    # mirror image of what the whole's orientation asks, which every face would count as
+    # folded; it is mirrored back
+    area = np.bincount(topo.face_island, signed_double_areas(uv_split, topo.faces), minlength=n)
+    uv_split[:, 0] = np.where(area[topo.vertex_island] < 0, -uv_split[:, 0], uv_split[:, 0])
     if options.pack:
         uv_split = pack_islands(uv_split, Islands(topo.vertex_island, n), options.margin, report.held)
     if options.refine:  # the combined layout's energy, as the refinement measures it
