@@ -63,16 +63,15 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
     )
     charts: BoolProperty(
         name="Charts",
-        description="Cut islands that are closed (or have holes or handles), and unseamed parts curved like "
-        "closed ones, into a few charts: seams along short paths and creases, until no more stretched than "
-        "Max Stretch. Islands your seams bound, and islands with pins, stay whole. Off: islands are only "
-        "cut open as far as they must be",
+        description="Cut parts with no seams (closed or open) and islands that are closed or have holes or "
+        "handles into a few charts: seams along short paths and creases, slits into squeezed tips, until "
+        "no more stretched than Max Stretch. Islands your seams bound, and islands with pins, stay whole. "
+        "Off: islands are only cut open as far as they must be",
         default=True,
     )
     chart_disks: BoolProperty(
         name="Chart Marked Islands",
-        description="With Charts: also cut islands that your seams (or the mesh's borders) already bound, "
-        "when they stretch beyond Max Stretch",
+        description="With Charts: also cut islands that your seams already bound, when they stretch beyond Max Stretch",
         default=False,
     )
     max_stretch: FloatProperty(

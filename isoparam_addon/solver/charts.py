@@ -1,12 +1,13 @@
-"""Beyond the paper: charts. An island that is not a disk, or is curved like a closed part,
-is cut into a few charts, each laid out near-isometrically within a stretch budget.
+"""Beyond the paper: charts. Every island the artist's seams do not bound (and every island
+that is not a disk) is cut until its charts are laid out within a stretch budget.
 
 A closed surface opened along its shortest cut (:mod:`.cutgraph`) flattens with regions
 squeezed and others blown up: Suzanne, spot or a character is far from isometric as one
-island. Region-growing chart makers (D-Charts, Julius et al. 2005; xatlas) cut into tens
-to thousands of charts by face normals; distortion-driven cutting (Gu, Gortler and Hoppe,
-"Geometry images", 2002; OptCuts, Li et al. 2018) cuts only where the layout needs it.
-Here, in that second spirit, and with few solves:
+island; so is an open part with bumps (a face scan, a terrain), whose curvature cancels
+in sum but not in its layout. Region-growing chart makers (D-Charts, Julius et al. 2005;
+xatlas) cut into tens to thousands of charts by face normals; distortion-driven cutting
+(Gu, Gortler and Hoppe, "Geometry images", 2002; OptCuts, Li et al. 2018) cuts only where
+the layout needs it. Here, in that second spirit, and with few solves:
 
 1. **Cells.** An island that holds more Gaussian curvature than half a sphere (a closed
    part, or one with small holes: no single cut flattens it without crushing some of it)
@@ -18,23 +19,25 @@ Here, in that second spirit, and with few solves:
    tori (little curvature) are opened by the usual cut (:mod:`.cutgraph`) instead.
 2. **Solve** the mesh with the cells' boundaries as seams (a cell that is still not a
    disk is cut open as usual).
-3. **Split where it stretches.** While an island's charts are more distorted than the
-   budget on (area-weighted) average, the charts that hold most of its excess are each
-   cut in two: a minimum cut between a ball around its most squeezed faces and one
-   around its most stretched, which lie on either side of where the layout had to tear
-   the surface. Charts that overlap themselves are cut apart in the same round
-   (:func:`.untangle.separating_cuts`). The pieces go on from the layout they were cut
-   from, alone (:func:`.resolve.cut_further`), so a round costs one solve of the charts
-   it cuts.
+3. **Cut where it stretches**, judged on the refined layout. While an island's charts are
+   more distorted than the budget on (area-weighted) average, the charts that hold most
+   of its excess are each cut once: where a chart squeezes a cap by more than the budget
+   allows (a tip, a bump, the end of a limb), a slit from its boundary to the most
+   squeezed place lets the cap open like a cone cut along a ruling; elsewhere a minimum
+   cut parts a ball around its most squeezed faces from one around its most stretched,
+   which lie on either side of where the layout had to tear the surface. Charts that
+   overlap themselves are cut apart in the same round (:func:`.untangle.separating_cuts`).
+   The pieces go on from the layout they were cut from, alone
+   (:func:`.resolve.cut_further`), so a round costs one solve of the charts it cuts.
 
 The budget is given as a stretch factor ``s``: an island may be as distorted (symmetric
 Dirichlet energy per area, each chart at its best scale) as one stretched uniformly by
-``s`` (:func:`energy_budget`), which is the energy the refinement lowers.
+``s`` (:func:`energy_budget`), which is the energy the refinement lowers; a face squeezed
+to less than ``1 / s^2`` of its area is beyond it.
 
-Islands that are disks bounded by the artist's seams, and open parts that hold less
-curvature, are the artist's to cut: they are charted only on request
-(``Options.chart_disks``). Islands with pins are left as they are (their layout is the
-pins' to shape).
+Disks bounded by the artist's seams are the artist's to cut: they are charted only on
+request (``Options.chart_disks``). Islands with pins are left as they are (their layout
+is the pins' to shape).
 """
 
 from __future__ import annotations
@@ -49,11 +52,11 @@ from scipy.sparse import csgraph
 from . import metrics
 from .geometry import corner_angles, corner_signed_areas, face_areas
 from .islands import first_rows
-from .mesh import HalfEdges, edge_mask
+from .mesh import HalfEdges, edge_mask, pair_keys
 from .mincut import FaceGraph, face_graph, minimum_cut, source_side
 from .options import Options, Problem
 from .pipeline import solve, topology_of
-from .report import SolverWarning, charted, cut_apart, opened
+from .report import SolverWarning, charted, cut_apart, opened, over_budget
 from .resolve import cut_further, pairs
 from .result import TOPOLOGY_WARNINGS, Parametrization, topology_warnings
 from .topology import Topology
@@ -69,6 +72,7 @@ _BALL = 0.35  # radius of the balls cut apart, as a share of the distance betwee
 _SMOOTH = 3  # rounds of neighbour averaging of the area ratio that places the balls
 _LEAVE = 0.1  # charts within this share of the budget's excess over isometric are not split
 _BAND = 0.1  # a cell boundary moves where its two seeds' distances differ by less than this share of the cell radius
+_GRID = 64  # the log area ratios that place cuts are rounded to 1 / _GRID
 _TIE = 1e-9  # distances this close (relative) are equal: the lowest-numbered face is the seed
 # the refinement's stopping tolerance wherever charts are cut: at the default 2e-4 an
 # island stops while its layout can still move by 1e-3 of its size, which decides where
@@ -88,15 +92,16 @@ class _Owners:
 
     face: np.ndarray  # (m,) the island of each face
     charted: np.ndarray  # (k,) islands that may be cut into charts (no pins)
+    held: np.ndarray  # (j,) islands that would be, but pins keep whole
     curved: np.ndarray  # (n,) bool: islands curved like a closed part (cut into cells first)
     topo: Topology
     graph: FaceGraph | None  # the faces' adjacency within islands (None when none is charted)
 
 
 def with_charts(problem: Problem, options: Options) -> Parametrization:
-    """:func:`.pipeline.solve`, with every island that is not a disk or is curved like a
-    closed part (any island, with ``options.chart_disks``) cut into charts as distorted as
-    ``options.max_stretch`` allows (:func:`energy_budget`) at most; with
+    """:func:`.pipeline.solve`, with every island that is not a disk or that no seam of the
+    caller's bounds (any island, with ``options.chart_disks``) cut into charts as distorted
+    as ``options.max_stretch`` allows (:func:`energy_budget`) at most; with
     ``options.split_overlaps``, charts that overlap themselves are cut apart."""
     t0 = time.perf_counter()
     built = topology_of(problem, options)
@@ -112,6 +117,7 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
         result.timings.total += t_topology + result.timings.charts
         if options.split_overlaps and (result.islands.crossings > 0).any():
             result = without_overlaps(result, problem, options)
+        result.warnings += _over_budget(result, owners, options.max_stretch, options.refine > 0)
         return result
     settle = np.isin(owners.face, owners.charted)  # (only where charts are cut)
     problem = replace(
@@ -127,11 +133,13 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     first_solve = result.timings.total
     result.cut_edges = np.vstack([cells, result.cut_edges])
     rounds = 0
+    stretch_cut = np.zeros(topo.n_islands, dtype=bool)  # islands cut where they stretched
     for rounds in range(1, _ROUNDS + 1):
         # split what stretches too much, and cut apart what overlaps itself, in one solve
         seams_now = np.vstack([seams, result.cut_edges])
         graph = face_graph(V, F, result.face_island, seams_now, problem.inner_edges)
         new, split = _stretch_cuts(result, graph, owners, options.max_stretch)
+        stretch_cut[owners.face[first_rows(result.face_island, result.n_islands)[split]]] = True
         overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
         if len(overlapping):
             apart = separating_cuts(result, problem, overlapping, graph)
@@ -146,17 +154,19 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     result.timings.charts = time.perf_counter() - t0 - first_solve - t_topology
     if options.split_overlaps and (result.islands.crossings > 0).any():
         result = without_overlaps(result, problem, options)
-    result.warnings = _warnings(result, owners, options.max_stretch, options.refine > 0)
-    result.stats.charts = int(len(np.unique(result.face_island[np.isin(owners.face, owners.charted)])))
+    result.warnings = _warnings(result, owners, stretch_cut, options.max_stretch, options.refine > 0)
+    cut = _cut_by_charting(result, owners, stretch_cut)
+    result.stats.charts = int(len(np.unique(result.face_island[np.isin(owners.face, cut)])))
     result.stats.chart_rounds = rounds
     result.timings.total = time.perf_counter() - t0
     return result
 
 
 def _owners(problem: Problem, V: np.ndarray, F: np.ndarray, topo: Topology, disks: bool) -> _Owners:
-    """Which islands may be cut into charts, those without a pinned corner that are: not
-    disks; or curved like a closed part (more than ``_CURVED``) with no seam of the
-    caller's on them (seams there are the artist's cut); or, with ``disks``, any."""
+    """Which islands may be cut into charts: those without a pinned corner that are not
+    disks, or that no seam of the caller's bounds (seams there are the artist's cut), or,
+    with ``disks``, any. Those curved like a closed part (more than ``_CURVED``) are cut
+    into cells first."""
     n = topo.n_islands
     pinned = np.zeros(n, dtype=bool)
     if problem.pins is not None:
@@ -165,14 +175,12 @@ def _owners(problem: Problem, V: np.ndarray, F: np.ndarray, topo: Topology, disk
     if len(pairs(problem.seams)):
         he = HalfEdges(F, len(V))
         marked[topo.face_island[np.flatnonzero(edge_mask(he, len(V), problem.seams)[he.edge]) // 3]] = True
-    maybe = ~pinned & (~marked | disks)  # (islands that are not disks are charted whatever their curvature)
-    maybe[topo.cut_islands] = ~pinned[topo.cut_islands]
-    curved = _curvature(V, topo) > _CURVED if maybe.any() else np.zeros(n, dtype=bool)
-    wanted = maybe & (curved | disks)
-    wanted[topo.cut_islands] = maybe[topo.cut_islands]
-    charted = np.flatnonzero(wanted)
+    wanted = ~marked | disks
+    wanted[topo.cut_islands] = True  # (whatever the seams on them)
+    curved = _curvature(V, topo) > _CURVED if (wanted & ~pinned).any() else np.zeros(n, dtype=bool)
+    charted = np.flatnonzero(wanted & ~pinned)
     graph = face_graph(V, F, topo.face_island, problem.seams, problem.inner_edges) if len(charted) else None
-    return _Owners(topo.face_island, charted, curved, topo, graph)
+    return _Owners(topo.face_island, charted, np.flatnonzero(wanted & pinned), curved, topo, graph)
 
 
 def _curvature(V: np.ndarray, topo: Topology) -> np.ndarray:
@@ -188,7 +196,7 @@ def _curvature(V: np.ndarray, topo: Topology) -> np.ndarray:
     h = np.flatnonzero(topo.he.twin < 0)  # boundary, seams and cuts
     ends = np.sort(topo.vertex_of[np.stack([topo.faces[h // 3, h % 3], topo.faces[h // 3, (h + 1) % 3]], 1)], 1)
     cut = np.sort(topo.cut_edges, axis=1)
-    real = ~np.isin(ends[:, 0] * np.int64(n) + ends[:, 1], cut[:, 0] * np.int64(n) + cut[:, 1])
+    real = ~np.isin(pair_keys(ends[:, 0], ends[:, 1], n), pair_keys(cut[:, 0], cut[:, 1], n))
     inside = np.bincount(corner, minlength=n) > 0
     inside[ends[real].ravel()] = False
     island = np.zeros(n, dtype=np.int64)
@@ -257,21 +265,23 @@ def energy_budget(max_stretch: float) -> float:
     return 2.0 * (max_stretch**2 + max_stretch**-2)
 
 
-def _chart_energy(result: Parametrization, owners: _Owners):
+def _chart_energy(result: Parametrization, owners: _Owners, islands: np.ndarray | None = None):
     """Per island of ``result`` (a chart): its symmetric Dirichlet energy per area at its
-    best scale, its 3D area (0 for charts of islands that are not charted, or without
-    area), and the island it was cut from."""
+    best scale, its 3D area (0 for charts of islands not in ``islands``, by default the
+    charted ones, or without area), and the island it was cut from."""
     per = metrics.per_island(result.vertices, result.faces, result.corner_uv, result.face_island)
     owner = owners.face[first_rows(result.face_island, result.n_islands)]
-    ok = np.isin(owner, owners.charted) & (per.area > 0) & np.isfinite(per.symmetric_dirichlet)
+    islands = owners.charted if islands is None else islands
+    ok = np.isin(owner, islands) & (per.area > 0) & np.isfinite(per.symmetric_dirichlet)
     return np.where(ok, per.symmetric_dirichlet, 4.0), np.where(ok, per.area, 0.0), owner
 
 
 def _stretch_cuts(result: Parametrization, graph: FaceGraph, owners: _Owners, budget: float):
-    """The cuts of one round (k, 2 vertex pairs) and the islands of ``result`` they split:
+    """The cuts of one round (k, 2 vertex pairs) and the islands of ``result`` they cut:
     in every charted island whose charts stretch more than ``budget`` on average, the
-    charts holding ``_COVER`` of its excess, each cut between its most squeezed and its
-    most stretched place."""
+    charts holding ``_COVER`` of its excess, each slit to every cap it squeezes beyond the
+    budget (:func:`_slits`), or, with none, cut in two between its most squeezed and its
+    most stretched place (:func:`_balls`)."""
     none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
     energy, area, owner = _chart_energy(result, owners)
     k = owners.topo.n_islands
@@ -290,15 +300,43 @@ def _stretch_cuts(result: Parametrization, graph: FaceGraph, owners: _Owners, bu
     chosen = chosen[energy[chosen] > 4.0 + _LEAVE * (limit - 4.0)]  # leave near-isometric charts
     if not len(chosen):
         return none
-    source, sink = _balls(result, graph, chosen)
-    cut = minimum_cut(graph.among(np.isin(result.face_island, chosen)), source, sink)
+    ratio = _area_ratio(result, graph)
+    on = np.isin(result.face_island, chosen)
+    # every region the layout squeezes beyond the budget is a cap to let open: a slit to
+    # its most squeezed face
+    caps = _regions(graph, on & (ratio < -2.0 * np.log(budget)))
+    n_caps = int(caps.max()) + 1
+    tips = _extreme(
+        np.where(caps >= 0, ratio, np.inf), np.where(caps >= 0, caps, n_caps), np.arange(n_caps), np.minimum, np.inf
+    )
+    slit, slitted = _slits(result, graph.among(on), tips, ratio)
+    rest = np.setdiff1d(chosen, slitted)
+    cuts = [slit]
+    if len(rest):
+        source, sink = _balls(result, graph, rest, ratio)
+        cuts.append(minimum_cut(graph.among(np.isin(result.face_island, rest)), source, sink))
+    cut = np.vstack(cuts)
     return (cut, chosen) if len(cut) else none
 
 
-def _balls(result: Parametrization, graph: FaceGraph, charts: np.ndarray):
-    """Per chart in ``charts``, the faces (m,) bool within ``_BALL`` of the distance between
-    its most squeezed and its most stretched face (area ratio against the chart's, smoothed
-    over neighbours) of the one and of the other."""
+def _regions(graph: FaceGraph, faces: np.ndarray) -> np.ndarray:
+    """Per face (m,), the connected region of ``faces`` (m,) bool it belongs to, numbered
+    from 0 by lowest face (-1 off ``faces``)."""
+    inside = graph.among(faces)
+    m = graph.n_faces
+    joined = sp.coo_matrix((np.ones(len(inside.f), dtype=np.int8), (inside.f, inside.g)), shape=(m, m))
+    _, label = csgraph.connected_components(joined, directed=False)
+    label = np.where(faces, label, -1)
+    _, number = np.unique(label[faces], return_inverse=True)
+    label[faces] = number.ravel()
+    return label
+
+
+def _area_ratio(result: Parametrization, graph: FaceGraph) -> np.ndarray:
+    """Per face (m,), the log of its UV area over its 3D area against its island's,
+    smoothed by ``_SMOOTH`` rounds of area-weighted averaging over its neighbours and
+    rounded to ``1 / _GRID``: negative where the layout squeezes the surface, positive
+    where it stretches it."""
     V, F, isl = result.vertices, result.faces, result.face_island
     m = len(F)
     a3 = face_areas(V, F)
@@ -312,6 +350,16 @@ def _balls(result: Parametrization, graph: FaceGraph, charts: np.ndarray):
     adjacency = (adjacency + adjacency.T).tocsr()
     for _ in range(_SMOOTH):  # area-weighted mean over each face and its neighbours
         ratio = (adjacency @ (ratio * a3) + ratio * a3) / np.maximum(adjacency @ a3 + a3, 1e-300)
+    # on a grid of 1/64: which face is most squeezed, and which path is shortest, must not
+    # follow the rounding of the layout (another machine's sums)
+    return np.round(_GRID * ratio) / _GRID
+
+
+def _balls(result: Parametrization, graph: FaceGraph, charts: np.ndarray, ratio: np.ndarray):
+    """Per chart in ``charts``, the faces (m,) bool within ``_BALL`` of the distance between
+    its most squeezed and its most stretched face (by ``ratio``, :func:`_area_ratio`) of
+    the one and of the other."""
+    isl = result.face_island
     on = np.isin(isl, charts)
     low = _extreme(np.where(on, ratio, np.inf), isl, charts, np.minimum, np.inf)
     high = _extreme(np.where(on, ratio, -np.inf), isl, charts, np.maximum, -np.inf)
@@ -325,28 +373,96 @@ def _balls(result: Parametrization, graph: FaceGraph, charts: np.ndarray):
     return source, sink
 
 
-def _charted(result: Parametrization, owners: _Owners, budget: float, refined: bool) -> list[SolverWarning]:
-    """The note on what was cut into charts: how many islands, why, into how many charts,
-    how much they stretch, and how many are still over the budget."""
-    energy, area, owner = _chart_energy(result, owners)
-    pieces = np.bincount(owner, minlength=owners.topo.n_islands)
-    cut = np.intersect1d(np.flatnonzero(pieces > 1), owners.charted)  # (others were only cut apart)
+def _slits(
+    result: Parametrization, inside: FaceGraph, faces: np.ndarray, ratio: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Slits (k, 2 vertex pairs) from the boundary of each chart to a corner of its face in
+    ``faces``, and the charts that got one (k,): the shortest paths, as laid out, over the
+    edges of ``inside`` (the charts' faces joined), each edge's cost scaled by the layout's
+    length scale there (``ratio``, :func:`_area_ratio`, is its log squared). A slit then
+    runs through what the layout squeezes, where it must tear, not through what it
+    stretches. A squeezed cap that a slit reaches opens like a cone
+    cut along a ruling (Gu, Gortler & Hoppe, "Geometry images", 2002, cut the same way to
+    where a layout is most distorted)."""
+    F, n = result.faces, len(result.vertices)
+    none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
+    if not len(faces):
+        return none
+    # the charts' boundary vertices: the ends of their faces' sides that join no face
+    on = np.zeros(len(F), dtype=bool)
+    on[inside.f] = on[inside.g] = True
+    on |= np.isin(result.face_island, result.face_island[faces])
+    ends_a, ends_b = F[on].ravel(), F[on][:, [1, 2, 0]].ravel()
+    joined = np.isin(pair_keys(ends_a, ends_b, n), pair_keys(inside.edges[:, 0], inside.edges[:, 1], n))
+    boundary = np.zeros(n, dtype=bool)
+    boundary[ends_a[~joined]] = boundary[ends_b[~joined]] = True
+    use = np.isfinite(inside.cost)  # (never along a polygon's diagonal)
+    a, b = inside.edges[use, 0], inside.edges[use, 1]
+    w = inside.cost[use] * np.exp(0.25 * (ratio[inside.f[use]] + ratio[inside.g[use]]))
+    w = w + 1e-12 * max(float(w.max(initial=0.0)), 1e-300)  # csgraph drops zeros
+    G = sp.coo_matrix((w, (a, b)), shape=(n, n)).tocsr()
+    target = F[faces, 0]
+    reached = ~boundary[target]
+    if not reached.any():
+        return none
+    dist, pred, _ = csgraph.dijkstra(
+        G, directed=False, indices=np.flatnonzero(boundary), min_only=True, return_predecessors=True
+    )
+    reached &= np.isfinite(dist[target])
+    cur = target[reached]
+    pieces = []
+    while cur.size:  # one step along every slit at once; as many rounds as the longest
+        prev = pred[cur].astype(np.int64)
+        pieces.append(np.stack([cur, prev], axis=1))
+        cur = prev[~boundary[prev]]
+    if not pieces:
+        return none
+    return np.unique(np.sort(np.concatenate(pieces), axis=1), axis=0), np.unique(result.face_island[faces[reached]])
+
+
+def _charted(result: Parametrization, owners: _Owners, cut: np.ndarray, budget: float) -> list[SolverWarning]:
+    """The note on the islands ``cut`` (k,) into charts, or slit open: how many, why, into
+    how many charts, and how much they stretch."""
     if not len(cut):
         return []
+    energy, area, owner = _chart_energy(result, owners)
+    topo = owners.topo
+    pieces = np.bincount(owner, minlength=topo.n_islands)
     total = np.bincount(owner, area, minlength=len(pieces))
     mean = np.bincount(owner, energy * area, minlength=len(pieces)) / np.maximum(total, 1e-300)
     first = result.face_island[first_rows(owners.face)[cut[0]]]
-    not_disk = np.isin(cut, owners.topo.cut_islands)
+    not_disk = np.isin(cut, topo.cut_islands)
     return charted(
         islands=len(cut),
         not_disks=int(not_disk.sum()),
         curved=int((owners.curved[cut] & ~not_disk).sum()),
         charts=int(pieces[cut].sum()),
         energy=float((mean[cut] * total[cut]).sum() / max(total[cut].sum(), 1e-300)),
-        over=int((mean[cut] > energy_budget(budget)).sum()),
         budget=budget,
-        refined=refined,
         first=int(first),
+    )
+
+
+def _over_budget(result: Parametrization, owners: _Owners, budget: float, refined: bool) -> list[SolverWarning]:
+    """The warning on the islands charting is for (:func:`_owners`) whose charts still
+    stretch beyond ``budget`` on average, pinned ones included: how many, how far, and
+    what would help."""
+    islands = np.union1d(owners.charted, owners.held)
+    energy, area, owner = _chart_energy(result, owners, islands)
+    k = owners.topo.n_islands
+    total = np.bincount(owner, area, minlength=k)
+    mean = np.bincount(owner, energy * area, minlength=k) / np.maximum(total, 1e-300)
+    over = np.flatnonzero(mean > energy_budget(budget))
+    if not len(over):
+        return []
+    return over_budget(
+        islands=len(over),
+        pinned=int(np.isin(over, owners.held).sum()),
+        energy=float((mean[over] * total[over]).sum() / max(total[over].sum(), 1e-300)),
+        budget=budget,
+        allowed=energy_budget(budget),
+        refined=refined,
+        first=int(result.face_island[first_rows(owners.face)[over[0]]]),
     )
 
 
@@ -360,17 +476,38 @@ def _extreme(value: np.ndarray, isl: np.ndarray, charts: np.ndarray, ufunc, empt
     return first[charts]
 
 
-def _warnings(result: Parametrization, owners: _Owners, budget: float, refined: bool) -> list[SolverWarning]:
-    """The result's warnings, with what the charts did in place of what the topology cut:
-    the islands cut into several charts are named once, by why; those only opened (one
-    chart, or pinned) as before."""
+def _cut_by_charting(result: Parametrization, owners: _Owners, stretch_cut: np.ndarray) -> np.ndarray:
+    """The islands (k,) that charting cut: charted ones cut into several charts because
+    they were not disks, were curved like a closed part (cells) or stretched
+    (``stretch_cut`` (n,) bool), and disks slit open where they stretched (not those only
+    cut apart where they overlapped themselves)."""
     topo = owners.topo
-    pieces = np.bincount(owners.face[first_rows(result.face_island, result.n_islands)], minlength=topo.n_islands)
-    # the charts note names those cut into charts; the others (one chart, pinned, or only cut
-    # apart where they overlapped) are named as opened
-    kept = topo.cut_islands[(pieces[topo.cut_islands] == 1) | ~np.isin(topo.cut_islands, owners.charted)]
+    n = topo.n_islands
+    pieces = np.bincount(owners.face[first_rows(result.face_island, result.n_islands)], minlength=n)
+    not_disk = np.zeros(n, dtype=bool)
+    not_disk[topo.cut_islands] = True
+    charted_ = np.zeros(n, dtype=bool)
+    charted_[owners.charted] = True
+    why = not_disk | owners.curved | stretch_cut
+    return np.flatnonzero(charted_ & (((pieces > 1) & why) | (stretch_cut & ~not_disk)))
 
-    first = first_rows(owners.face, topo.n_islands)
+
+def _warnings(
+    result: Parametrization, owners: _Owners, stretch_cut: np.ndarray, budget: float, refined: bool
+) -> list[SolverWarning]:
+    """The result's warnings, with what the charts did in place of what the topology cut.
+
+    The islands charting cut are named once, by why: into several charts because they
+    were not disks, curved like a closed part (cells) or stretched (``stretch_cut`` (n,)
+    bool), or slit open where they stretched; those only opened (one chart, or pinned) as
+    before; those only cut apart where they overlapped themselves as such; and those
+    still beyond the budget."""
+    topo = owners.topo
+    n = topo.n_islands
+    pieces = np.bincount(owners.face[first_rows(result.face_island, result.n_islands)], minlength=n)
+    cut = _cut_by_charting(result, owners, stretch_cut)
+    kept = np.setdiff1d(topo.cut_islands, cut)
+    first = first_rows(owners.face, n)
 
     def now(islands):  # the result's island holding each island's first face
         return result.face_island[first[np.intersect1d(islands, kept)]]
@@ -383,7 +520,8 @@ def _warnings(result: Parametrization, owners: _Owners, budget: float, refined: 
         now(topo.multi_boundary_islands),
         now(topo.nonorientable_islands),
     )
-    out += _charted(result, owners, budget, refined)
-    apart = np.setdiff1d(np.flatnonzero(pieces > 1), owners.charted)  # islands cut apart where they overlapped
+    out += _charted(result, owners, cut, budget)
+    out += _over_budget(result, owners, budget, refined)
+    apart = np.setdiff1d(np.flatnonzero(pieces > 1), cut)  # islands cut apart where they overlapped
     out += cut_apart(result.face_island[first[apart]])
     return out + [w for w in result.warnings if w.kind not in (*TOPOLOGY_WARNINGS, "cut_apart")]

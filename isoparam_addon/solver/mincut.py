@@ -22,7 +22,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from .islands import first_rows
-from .mesh import HalfEdges, edge_mask
+from .mesh import HalfEdges, pair_keys
 
 __all__ = ["FaceGraph", "face_graph", "minimum_cut", "source_side"]
 
@@ -93,23 +93,35 @@ def face_graph(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, cut, inner
     pairs: seams and cuts so far) and are shared by exactly two faces. ``inner_edges``
     (vertex pairs) are never to be cut."""
     n, m = len(V), len(F)
-    he = HalfEdges(F, n)
-    cut_mask = edge_mask(he, n, cut)
+    # the faces of each island over vertices of their own: an edge two faces of an island
+    # share is theirs alone, whatever faces of other islands also hold it (a face given
+    # twice is an island of its own, and must not make its copy's edges look non-manifold)
+    own, Fi = np.unique(pair_keys(np.repeat(face_island, 3), F.ravel(), n, ordered=True), return_inverse=True)
+    Fi = Fi.reshape(-1, 3)
+    vertex = own % n  # the mesh vertex of each island's own copy
+    he = HalfEdges(Fi, len(own))
     h = np.flatnonzero(he.twin > np.arange(3 * m))
     f, g = h // 3, he.twin[h] // 3
     e = he.edge[h]
-    keep = (face_island[f] == face_island[g]) & ~cut_mask[e] & (he.edge_count[e] == 2)
-    f, g, e = f[keep], g[keep], e[keep]
-    edges = he.edge_vertices[e]
+    edges = np.sort(vertex[he.edge_vertices[e]], axis=1)
+    keep = ~np.isin(pair_keys(edges[:, 0], edges[:, 1], n), _keys(cut, n)) & (he.edge_count[e] == 2)
+    f, g, e, edges = f[keep], g[keep], e[keep], edges[keep]
     length = np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1)
     normal = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
     # (a mesh not consistently oriented reads some flat edges as creases: only a cost)
     angle = np.arccos(np.clip((normal[f] * normal[g]).sum(axis=1), -1.0, 1.0))
     cost = length * (1.0 - (1.0 - _CREASE_COST) * np.minimum(angle / _CREASE, 1.0))
-    inner = edge_mask(he, n, inner_edges, "inner_edges")[e]
-    cost[inner] = np.inf
+    cost[np.isin(pair_keys(edges[:, 0], edges[:, 1], n), _keys(inner_edges, n))] = np.inf
     return FaceGraph(f, g, edges, cost, V[F].mean(axis=1))
+
+
+def _keys(pairs, n: int) -> np.ndarray:
+    """The :func:`.mesh.pair_keys` of vertex pairs ``pairs`` (k, 2, or None: none)."""
+    if pairs is None:
+        return np.zeros(0, dtype=np.int64)
+    P = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    return pair_keys(P[:, 0], P[:, 1], n)
 
 
 def minimum_cut(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.ndarray:

@@ -46,13 +46,12 @@ class Options:
         many more cuts while they help (see :mod:`.cuts`). 0: the shortest cut that
         opens the island, nothing more.
     charts : bool
-        Cut every island that is not a disk, or that no seam bounds and is curved like a
-        closed part (more Gaussian curvature than half a sphere), into charts within
-        ``max_stretch`` (see :mod:`.charts`); islands with pins are left whole.
-        Supersedes ``extra_cuts``.
+        Cut every island that is not a disk, or that no seam of the caller's bounds (closed
+        or open), into charts until within ``max_stretch`` (see :mod:`.charts`); islands
+        with pins are left whole. Supersedes ``extra_cuts``.
     chart_disks : bool
-        With ``charts``: any other island (a disk bounded by seams, or a flatter open
-        part) that stretches beyond ``max_stretch`` is cut into charts too.
+        With ``charts``: islands the caller's seams bound that stretch beyond
+        ``max_stretch`` are cut into charts too.
     max_stretch : float
         The charts' budget: an island is cut until its charts' symmetric Dirichlet energy
         per area (area-weighted, each chart at its best scale) is no more than that of a

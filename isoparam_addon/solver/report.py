@@ -23,6 +23,7 @@ __all__ = [
     "charted",
     "defects",
     "opened",
+    "over_budget",
     "solver_names",
     "warnings",
 ]
@@ -57,6 +58,7 @@ class SolverWarning:
     ``cut_nonorientable`` non-orientable islands, cut (islands)
     ``extra_cuts``        edges cut further to lower distortion (edges; no first)
     ``charts``            charts that islands were cut into (charts; first: one of them)
+    ``over_budget``       islands whose charts stretch beyond Max Stretch (islands)
     ``cut_apart``         islands that overlapped themselves and were cut apart
                           (islands; first: a piece of one)
     ``not_converged``     islands on which Step 3 missed its tolerance (islands)
@@ -327,23 +329,12 @@ def lowered(added: int, before: np.ndarray, score: np.ndarray) -> list[SolverWar
     return [_warning("extra_cuts", added, "", None, template)]
 
 
-def charted(
-    islands: int,
-    not_disks: int,
-    curved: int,
-    charts: int,
-    energy: float,
-    over: int,
-    budget: float,
-    first: int,
-    refined: bool,
-):
+def charted(islands: int, not_disks: int, curved: int, charts: int, energy: float, budget: float, first: int):
     """The note that says what was cut into charts (:mod:`.charts`): ``islands`` cut into
-    ``charts`` in all, ``not_disks`` of them because they were not disks, ``curved`` disks
-    because they were curved like closed parts (the others because they stretched more
-    than ``budget``), their charts' mean symmetric Dirichlet ``energy`` per area, and how
-    many are still ``over`` the budget, and what would help: seams, or (not ``refined``)
-    refinement."""
+    ``charts`` in all (as many: slit open only), ``not_disks`` of them because they were
+    not disks, ``curved`` disks because they were curved like closed parts (the others
+    because they stretched more than ``budget``), and their charts' mean symmetric
+    Dirichlet ``energy`` per area."""
     why = []
     if not_disks:
         why.append(f"{not_disks} not {'a disk' if not_disks == 1 else 'disks'}")
@@ -351,15 +342,27 @@ def charted(
         why.append(f"{curved} curved like a closed part")
     if islands - not_disks - curved:
         why.append(f"{islands - not_disks - curved} stretched beyond {budget:.3g}")
+    into = "slit open" if charts == islands else f"cut into {charts} charts"
     template = (
-        f"{counted(islands, 'island was', 'islands were')} cut into {charts} charts ({', '.join(why)}; "
+        f"{counted(islands, 'island was', 'islands were')} {into} ({', '.join(why)}; "
         f"first: {{first}}), distortion {energy:.3f} (4 is isometric)"
     )
-    if over:
-        template += f"; {over} still stretched beyond {budget:.3g}" + (
-            ": mark seams there" if refined else " (not refined: refinement lowers it)"
-        )
     return [_warning("charts", charts, "island", first, template)]
+
+
+def over_budget(islands: int, pinned: int, energy: float, budget: float, allowed: float, refined: bool, first: int):
+    """The warning on ``islands`` whose charts still stretch beyond ``budget`` (Max Stretch,
+    which ``allowed`` symmetric Dirichlet energy per area) after charting, ``pinned`` of
+    them whole because of their pins: their mean energy per area, and what would help:
+    seams, a higher budget, or (not ``refined``) refinement."""
+    why = f", {pinned} kept whole by {'its' if pinned == 1 else 'their'} pins" if pinned else ""
+    help_ = "mark seams there or raise Max Stretch" if refined else "not refined: refinement lowers it"
+    template = (
+        f"{counted(islands, 'island stretches', 'islands stretch')} beyond {budget:.3g} "
+        f"(distortion {energy:.3f} where {budget:.3g} allows {allowed:.3f}{why}; "
+        f"first: {{first}}): {help_}"
+    )
+    return [_warning("over_budget", islands, "island", first, template)]
 
 
 def warnings(islands: IslandReport, converged: np.ndarray, flipped: np.ndarray, unused: int) -> list[SolverWarning]:

@@ -85,7 +85,19 @@ def separating_cuts(
     hops = csgraph.dijkstra(pair_graph, directed=False, unweighted=True, indices=i[best], min_only=True)
     reached = np.isfinite(hops)
     parity = np.where(reached, hops, 0).astype(np.int64) % 2
-    return minimum_cut(graph, *_sides(graph, reached & (parity == 0), reached & (parity == 1)))
+    source, sink = _sides(graph, reached & (parity == 0), reached & (parity == 1))
+    # each side whole: a face of one side cut off inside the other would be a chip
+    source, sink = _holding(graph, source, i[best]), _holding(graph, sink, j[best])
+    return minimum_cut(graph, source, sink)
+
+
+def _holding(graph: FaceGraph, faces: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """The faces (m,) bool of ``faces`` joined to one of ``seeds`` (k,) through ``faces``."""
+    keep = faces[graph.f] & faces[graph.g]
+    m = graph.n_faces
+    G = sp.coo_matrix((np.ones(int(keep.sum()), dtype=np.int8), (graph.f[keep], graph.g[keep])), shape=(m, m))
+    _, label = csgraph.connected_components(G, directed=False)
+    return faces & np.isin(label, label[seeds[faces[seeds]]])
 
 
 def _sides(graph: FaceGraph, layer: np.ndarray, other: np.ndarray):

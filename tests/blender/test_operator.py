@@ -535,7 +535,7 @@ def test_undo_restores_the_previous_uvs_and_seams(scene):
 
 
 def test_unwrap_in_place_keeps_islands_where_they_were(scene):
-    V, F = ex.peaks(21)
+    V, F = ex.peaks(21, z_scale=0.1)  # (within Max Stretch as one island: not charted)
     ob = add_mesh("peaks", V, F)
     edit(ob)
     bpy.ops.uv.unwrap(method="CONFORMAL")
@@ -825,13 +825,13 @@ def test_refinement_0_folds_no_triangle_of_a_closed_mesh(scene):
 
 @pytest.mark.parametrize("refine", [0, 1000])
 def test_what_the_four_steps_did_is_news_once_refined(scene, refine):
-    # Suzanne's four-step layout folds on some charts: with refinement, which starts those
+    # a band round a sphere: its four-step layout folds; with refinement, which starts it
     # from a conformal map, the result is what counts (no fold), so that is a note (INFO);
     # without, it is the layout's own story, a warning
     from isoparam_addon.blender import unwrap as unwrap_module
 
-    bpy.ops.mesh.primitive_monkey_add()
-    edit(bpy.context.object)
+    V, F = ex.sphere_band()
+    edit(add_mesh("band", V, F))
     assert unwrap(refine=refine) == {"FINISHED"}
     run = unwrap_module.last_run
     said = [text for text in run.notes if "laid out instead" in text]
