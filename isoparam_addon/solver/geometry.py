@@ -84,6 +84,9 @@ def corner_signed_areas(cuv: np.ndarray) -> np.ndarray:
     return 0.5 * ((u[:, 1] - u[:, 0]) * (v[:, 2] - v[:, 0]) - (v[:, 1] - v[:, 0]) * (u[:, 2] - u[:, 0]))
 
 
+COLLAPSED = 1e-6  # a face this flat (height over its longer side) has no area to speak of
+
+
 class Triangles(NamedTuple):
     """Each face's two edges from its first corner, ``e1 = p1 - p0`` and ``e2 = p2 - p0``,
     as the four numbers that fix the triangle up to a rigid motion: the face maps to its
@@ -97,6 +100,14 @@ class Triangles(NamedTuple):
     @property
     def area(self) -> np.ndarray:
         return 0.5 * self.cross
+
+    @property
+    def collapsed(self) -> np.ndarray:
+        """Faces with no area to speak of: their height is below ``COLLAPSED`` of their
+        longer side from the first corner (a face whose corners sit on one line or one
+        point has no orientation, so it cannot fold; the refinement gives it a stand-in)."""
+        side = np.maximum(self.l1, self.l2)
+        return self.cross <= COLLAPSED * side * side
 
 
 def triangles(X: np.ndarray, faces: np.ndarray) -> Triangles:

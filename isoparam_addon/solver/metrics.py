@@ -36,7 +36,9 @@ Summary (:func:`distortion` returns all of them):
 ``flipped``
     Faces whose UV orientation disagrees with their island's area majority, plus faces
     collapsed to zero UV area; each island oriented across the edges its faces share in
-    UV, so that input winding does not count (:func:`folded`).
+    UV, so that input winding does not count (:func:`folded`). A face with no 3D area
+    (its corners on a line: :attr:`.geometry.Triangles.collapsed`) has no orientation and
+    is not counted.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ from scipy.sparse import csgraph
 
 from .geometry import corner_signed_areas, next_corner, triangles
 from .islands import Islands
-from .mesh import HalfEdges, orientation
+from .mesh import HalfEdges, orientation, unit_of
 
 __all__ = [
     "corner_uvs",
@@ -203,12 +205,20 @@ def symmetric_dirichlet(V, F, uv) -> float:
 
 
 def flipped(V, F, uv, face_island=None) -> int:
-    """Faces folded against their island's orientation, or collapsed to zero UV area."""
+    """Faces folded against their island's orientation, or collapsed to zero UV area (not
+    counting faces with no 3D area)."""
     F = np.asarray(F, dtype=np.int64)
     cuv = corner_uvs(F, uv)
     if face_island is None:
         face_island = uv_islands(F, cuv)
-    return int(folded(F, cuv, face_island).sum())
+    return int((folded(F, cuv, face_island) & ~_collapsed(V, F)).sum())
+
+
+def _collapsed(V, F: np.ndarray) -> np.ndarray:
+    """Faces (m,) bool with no 3D area to speak of (:attr:`.geometry.Triangles.collapsed`),
+    measured in units of the mesh's size (no overflow at 1e150)."""
+    V = np.asarray(V, dtype=np.float64)
+    return triangles(V / unit_of(V), F).collapsed
 
 
 def folded(F: np.ndarray, cuv: np.ndarray, face_island: np.ndarray) -> np.ndarray:
@@ -377,7 +387,7 @@ def per_island(V, F, uv, face_island=None) -> IslandDistortion:
         linf = groups.max(np.where(ok, big_inv, -np.inf))
         worse = np.maximum(big_inv, np.where(small_inv > 0, 1.0 / small_inv, np.inf))  # max(sigma1, 1/sigma2)
         stretch = groups.sum(np.where(w > 0, worse * w, 0.0)) / A3
-    flips = np.bincount(label[folded(F, cuv, label)], minlength=k)
+    flips = np.bincount(label[folded(F, cuv, label) & ~_collapsed(V, F)], minlength=k)
     has = A3 > 0
     total = float(A3[has].sum())
     finite = has & np.isfinite(scale) & (scale > 0)

@@ -9,8 +9,8 @@ grid has paired the edges whose boxes meet. The faces that overlap, and the area
 share, come from the same grid over triangles and a separating-axis test
 (:func:`overlapping_faces`), then clipping one triangle by the other (:func:`shared_area`).
 
-Everything runs on whole arrays: the grid pairs items cell by cell with ``np.repeat``;
-no loop runs over faces, edges or islands.
+Everything runs on whole arrays: the grids pair items cell by cell with ``np.repeat``;
+no loop runs over faces, edges or islands (only over a few size classes).
 """
 
 from __future__ import annotations
@@ -34,39 +34,53 @@ __all__ = [
 
 
 def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: float):
-    """Pairs (i < j) of items whose boxes ``lo``/``hi`` (k, 2) meet a common grid cell of
-    size ``cell`` and that belong to the same ``group`` (k,): (p,) and (p,) int64, each
-    pair once."""
+    """Pairs (i < j) of items whose boxes ``lo``/``hi`` (k, 2) meet and that belong to the
+    same ``group`` (k,): (p,) and (p,) int64, each pair once.
+
+    A grid per size class (a loose quadtree, flattened): an item whose box is wider than
+    ``cell`` goes to the grid whose cells are the smallest power of two times ``cell`` at
+    least as wide, so that it spans two by two cells at most; each grid pairs its own items
+    with each other and with the smaller items, which it holds too. Two items whose boxes
+    meet share a cell of the grid of the larger. A sliver as long as the layout thus costs
+    a few cells, not a row of thousands, and is tested against the items near it only.
+    """
     k = len(lo)
+    empty = np.zeros(0, dtype=np.int64)
     if k < 2:
-        empty = np.zeros(0, dtype=np.int64)
         return empty, empty
     base = lo.min(axis=0)
-    c0 = np.floor((lo - base) / cell).astype(np.int64)
-    c1 = np.floor((hi - base) / cell).astype(np.int64)
-    span = c1 - c0 + 1
-    count = span[:, 0] * span[:, 1]
-    item = np.repeat(np.arange(k), count)
-    # the cells of each item: offsets inside its box, row by row
-    offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-    cx = c0[item, 0] + offset % span[item, 0]
-    cy = c0[item, 1] + offset // span[item, 0]
-    width = int(c1[:, 0].max()) + 1
-    key = (group[item] * (int(c1[:, 1].max()) + 1) + cy) * width + cx
-    order = np.argsort(key, kind="stable")
-    key, item = key[order], item[order]
-    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    size = np.diff(np.r_[start, len(key)])
-    # every item with each later item of its cell
-    pos = np.arange(len(key))
-    cell_end = np.repeat(start + size, size)
-    later = cell_end - pos - 1
-    a = np.repeat(pos, later)
-    b = a + 1 + (np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later))
-    i, j = item[a], item[b]
-    i, j = np.minimum(i, j), np.maximum(i, j)
+    extent = np.max(hi - lo, axis=1)
+    level = np.ceil(np.log2(np.maximum(extent / cell, 1.0))).astype(np.int64)
+    found = []
+    for top in np.unique(level):  # a few size classes, each one whole-array pass
+        held = np.flatnonzero(level <= top)
+        size = cell * 2.0 ** float(top)
+        c0 = np.floor((lo[held] - base) / size).astype(np.int64)
+        c1 = np.floor((hi[held] - base) / size).astype(np.int64)
+        span = c1 - c0 + 1
+        count = span[:, 0] * span[:, 1]
+        slot = np.repeat(np.arange(len(held)), count)
+        offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+        cx = c0[slot, 0] + offset % span[slot, 0]
+        cy = c0[slot, 1] + offset // span[slot, 0]
+        width = int(c1[:, 0].max()) + 1
+        key = (group[held[slot]] * (int(c1[:, 1].max()) + 1) + cy) * width + cx
+        own = level[held[slot]] == top
+        order = np.lexsort((~own, key))  # per cell, this grid's own items first
+        key, item, own = key[order], held[slot[order]], own[order]
+        start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+        size_ = np.diff(np.r_[start, len(key)])
+        # every own item with each later item of its cell (own first: every pair once per cell)
+        pos = np.arange(len(key))
+        later = np.where(own, np.repeat(start + size_, size_) - pos - 1, 0)
+        a = np.repeat(pos, later)
+        b = a + 1 + (np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later))
+        i, j = item[a], item[b]
+        meet = (i != j) & ((lo[i] <= hi[j]) & (lo[j] <= hi[i])).all(axis=1)  # (boxes apart: items apart)
+        found.append(np.stack([i[meet], j[meet]]))
+    i, j = np.concatenate(found, axis=1)
     keep = i != j
-    pair = np.unique(pair_keys(i[keep], j[keep], k, ordered=True))
+    pair = np.unique(pair_keys(i[keep], j[keep], k))
     return pair // k, pair % k
 
 
@@ -195,6 +209,7 @@ class Overlaps(NamedTuple):
     area: np.ndarray  # (n_islands,) UV area covered twice
     pairs: tuple[np.ndarray, np.ndarray]  # faces of one island that overlap (or, if none
     # share area, the faces of its first crossing boundary edges), (p,) each
+    pair_area: np.ndarray  # (p,) the UV area each pair shares (0 for a crossing's faces)
 
     @property
     def islands(self) -> int:
@@ -231,7 +246,7 @@ def self_overlaps(F: np.ndarray, cuv: np.ndarray, face_island: np.ndarray, n_isl
     m = len(F)
     if not m:
         empty = np.zeros(0, dtype=np.int64)
-        return Overlaps(np.zeros(n_islands, dtype=np.int64), np.zeros(n_islands), (empty, empty))
+        return Overlaps(np.zeros(n_islands, dtype=np.int64), np.zeros(n_islands), (empty, empty), np.zeros(0))
     quv = np.ascontiguousarray(cuv.reshape(-1, 2), dtype=np.float64)
     point = uv_points(F, cuv)
     he = HalfEdges(F, int(F.max()) + 1)
@@ -254,10 +269,13 @@ def self_overlaps(F: np.ndarray, cuv: np.ndarray, face_island: np.ndarray, n_isl
     on = np.flatnonzero(per[face_island] > 0)
     fi, fj = overlapping_faces(cuv[on], point.reshape(-1, 3)[on], face_island[on])
     fi, fj = on[fi], on[fj]
-    area = np.bincount(face_island[fi], shared_area(cuv[fi], cuv[fj]), minlength=n_islands)
+    shared = shared_area(cuv[fi], cuv[fj])
+    area = np.bincount(face_island[fi], shared, minlength=n_islands)
     # an island whose boundary crosses where no two faces share area (they only touch
     # there): the faces of its first crossing stand for the overlap
     bare = np.setdiff1d(np.flatnonzero(per > 0), face_island[fi])
     first = np.unique(face_island[b[a] // 3], return_index=True)[1]
     pick = first[np.isin(face_island[b[a[first]] // 3], bare)]
-    return Overlaps(per, area, (np.r_[fi, b[a[pick]] // 3], np.r_[fj, b[c[pick]] // 3]))
+    return Overlaps(
+        per, area, (np.r_[fi, b[a[pick]] // 3], np.r_[fj, b[c[pick]] // 3]), np.r_[shared, np.zeros(len(pick))]
+    )

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import metrics
-from .geometry import signed_areas
+from .geometry import signed_areas, triangles
 from .overlap import boundary_crossings
 from .report import IslandReport, SolverWarning, Stats, Timings, defects, opened, warnings
 from .topology import Topology
@@ -37,7 +37,8 @@ class Parametrization:
         Islands that were not topological disks (closed, with handles, several boundary
         loops, non-orientable) and were cut.
     flipped : (m,) bool
-        Faces whose UV triangle is clockwise (folded) or collapsed.
+        Faces whose UV triangle is clockwise (folded) or collapsed, of those with a 3D
+        area (:attr:`.geometry.Triangles.collapsed`: no orientation to keep).
     eigenvalues : (n_islands, 2) float64
         Ritz values of ``M`` for the two embedding vectors (Step 3).
     converged : (n_islands,) bool
@@ -91,7 +92,7 @@ class Parametrization:
             return self_overlaps(self.faces, self.corner_uv, self.face_island, self.n_islands)
         at = np.flatnonzero(np.isin(self.face_island, islands))
         found = self_overlaps(self.faces[at], self.corner_uv[at], self.face_island[at], self.n_islands)
-        return Overlaps(found.crossings, found.area, (at[found.pairs[0]], at[found.pairs[1]]))
+        return Overlaps(found.crossings, found.area, (at[found.pairs[0]], at[found.pairs[1]]), found.pair_area)
 
 
 def per_corner_and_vertex(uv_split: np.ndarray, topo: Topology, n: int):
@@ -124,8 +125,9 @@ def assemble(
     gathered on the way: the corner and vertex UVs, folds and overlaps measured on the
     layout as returned, the counts, and the warnings."""
     # of the layout as returned (up to the power-of-two unit, which keeps every sign):
-    # moving an island rounds a face of 1e-26 the mesh's area to clockwise or nothing
-    flipped = signed_areas(layout, topo.faces) <= 0
+    # moving an island rounds a face of 1e-26 the mesh's area to clockwise or nothing;
+    # a face with no 3D area has no orientation to keep
+    flipped = (signed_areas(layout, topo.faces) <= 0) & ~triangles(V / unit, F).collapsed
     corner_uv, uv, unused = per_corner_and_vertex(layout * unit, topo, len(V))
     report.crossings = boundary_crossings(layout, topo)
     stats.split_vertices = len(topo.vertex_of)

@@ -24,7 +24,6 @@ from scipy.sparse import csgraph
 from .islands import first_rows
 from .mincut import FaceGraph, face_graph, minimum_cut
 from .options import Options, Problem
-from .overlap import shared_area
 from .report import cut_apart
 from .resolve import carried_warnings, cut_further, pairs
 from .result import Parametrization
@@ -70,14 +69,15 @@ def separating_cuts(
         seams = np.vstack([pairs(problem.seams), result.cut_edges])
         graph = face_graph(result.vertices, result.faces, result.face_island, seams, problem.inner_edges)
     graph = graph.among(np.isin(result.face_island, bad))
-    i, j = result.overlaps(bad).pairs
+    found = result.overlaps(bad)
+    i, j = found.pairs
     if not len(i):
         return np.zeros((0, 2), dtype=np.int64)
     m = len(result.faces)
     # the two faces of an overlap lie in different layers of the island: colour the faces
     # of every group of overlaps (the pairs linked through shared faces) by the parity of
     # their distance from the group's largest overlap, and cut between the two colours
-    area = shared_area(result.corner_uv[i], result.corner_uv[j])
+    area = found.pair_area
     pair_graph = sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(m, m)).tocsr()
     group = csgraph.connected_components(pair_graph, directed=False)[1][i]
     order = np.lexsort((-area, group))
