@@ -17,9 +17,13 @@ the layout needs it. Here, in that second spirit, and with few solves:
    (:mod:`.mincut`: short, along creases). Each cell flattens without the extreme
    squeeze of one cut, which also spares the refinement its slowest starts. Tubes and
    tori (little curvature) are opened by the usual cut (:mod:`.cutgraph`) instead.
-2. **Solve** the mesh with the cells' boundaries as seams (a cell that is still not a
-   disk is cut open as usual).
-3. **Cut where it stretches**, judged on the refined layout. While an island's charts are
+2. **Slit what a conformal map crushes.** A cap that a conformal map of its island squeezes
+   far beyond the budget is slit open before anything is refined
+   (:func:`_conformal_slits`): one sparse solve per island where a round costs a
+   refinement.
+3. **Solve** the mesh with the cells' boundaries and those slits as seams (a cell that is
+   still not a disk is cut open as usual).
+4. **Cut where it stretches**, judged on the refined layout. While an island's charts are
    more distorted than the budget on (area-weighted) average, the charts that hold most
    of its excess are each cut once: where a chart squeezes a cap by more than the budget
    allows (a tip, a bump, the end of a limb), a slit from its boundary to the most
@@ -51,14 +55,16 @@ from scipy.sparse import csgraph
 
 from . import metrics
 from .geometry import corner_angles, corner_signed_areas, face_areas
-from .islands import first_rows
-from .mesh import HalfEdges, edge_mask, pair_keys
+from .islands import Islands, first_rows
+from .mesh import HalfEdges, edge_mask, pair_keys, unit_of
 from .mincut import FaceGraph, face_graph, minimum_cut, source_side
 from .options import Options, Problem
 from .pipeline import solve, topology_of
+from .refinement import FaceFrames
 from .report import SolverWarning, charted, cut_apart, opened, over_budget
 from .resolve import cut_further, pairs
 from .result import TOPOLOGY_WARNINGS, Parametrization, topology_warnings
+from .seeds import lscm
 from .topology import Topology
 from .untangle import separating_cuts, without_overlaps
 
@@ -70,6 +76,7 @@ _ROUNDS = 8  # split, solve again, measure: at most this many times
 _COVER = 0.5  # a round splits the charts that hold this share of their island's excess stretch
 _BALL = 0.35  # radius of the balls cut apart, as a share of the distance between their centres
 _SMOOTH = 3  # rounds of neighbour averaging of the area ratio that places the balls
+_PREDICT = 2.0  # caps a conformal map squeezes below 1 / s^(2 _PREDICT) of their area are slit at once
 _LEAVE = 0.1  # charts within this share of the budget's excess over isometric are not split
 _BAND = 0.1  # a cell boundary moves where its two seeds' distances differ by less than this share of the cell radius
 _GRID = 64  # the log area ratios that place cuts are rounded to 1 / _GRID
@@ -126,14 +133,17 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
         settle_above=np.where(settle, 4.0 + _DECIDING * (energy_budget(options.max_stretch) - 4.0), np.inf),
     )
     cells = _cell_boundaries(owners.graph, owners.face, owners.charted[owners.curved[owners.charted]])
-    if len(cells):
-        result = solve(replace(problem, seams=np.vstack([seams, cells])), options)
+    slits, slit = _conformal_slits(problem, options, np.vstack([seams, cells]), owners)
+    first = np.vstack([cells, slits])  # the cuts of the first solve
+    if len(first):
+        result = solve(replace(problem, seams=np.vstack([seams, first])), options)
     else:
         result = solve(problem, options, built)
     first_solve = result.timings.total
-    result.cut_edges = np.vstack([cells, result.cut_edges])
+    result.cut_edges = np.vstack([first, result.cut_edges])
     rounds = 0
     stretch_cut = np.zeros(topo.n_islands, dtype=bool)  # islands cut where they stretched
+    stretch_cut[slit] = True
     for rounds in range(1, _ROUNDS + 1):
         # split what stretches too much, and cut apart what overlaps itself, in one solve
         seams_now = np.vstack([seams, result.cut_edges])
@@ -304,11 +314,7 @@ def _stretch_cuts(result: Parametrization, graph: FaceGraph, owners: _Owners, bu
     on = np.isin(result.face_island, chosen)
     # every region the layout squeezes beyond the budget is a cap to let open: a slit to
     # its most squeezed face
-    caps = _regions(graph, on & (ratio < -2.0 * np.log(budget)))
-    n_caps = int(caps.max()) + 1
-    tips = _extreme(
-        np.where(caps >= 0, ratio, np.inf), np.where(caps >= 0, caps, n_caps), np.arange(n_caps), np.minimum, np.inf
-    )
+    tips = _tips(graph, on & (ratio < -2.0 * np.log(budget)), ratio)
     slit, slitted = _slits(result, graph.among(on), tips, ratio)
     rest = np.setdiff1d(chosen, slitted)
     cuts = [slit]
@@ -317,6 +323,63 @@ def _stretch_cuts(result: Parametrization, graph: FaceGraph, owners: _Owners, bu
         cuts.append(minimum_cut(graph.among(np.isin(result.face_island, rest)), source, sink))
     cut = np.vstack(cuts)
     return (cut, chosen) if len(cut) else none
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """A layout of the mesh's faces, per face corner, and its islands: what the cuts of a
+    round read (a :class:`.result.Parametrization` is one too)."""
+
+    vertices: np.ndarray  # (n, 3)
+    faces: np.ndarray  # (m, 3)
+    corner_uv: np.ndarray  # (m, 3, 2)
+    face_island: np.ndarray  # (m,)
+    n_islands: int
+
+
+def _conformal_slits(
+    problem: Problem, options: Options, seams: np.ndarray, owners: _Owners
+) -> tuple[np.ndarray, np.ndarray]:
+    """Slits (k, 2 vertex pairs) into the caps that a conformal map of every charted island
+    (cut along ``seams`` and opened into disks) squeezes to less than ``1 / s^(2 _PREDICT)``
+    of their area (``s``: Max Stretch), chosen as in a round (:func:`_slits`), and the
+    islands (of ``owners``) they slit.
+
+    A conformal map keeps angles and puts all of its distortion into area; an isometric
+    layout shares it between area and angle. Where the conformal map squeezes a cap far
+    beyond the budget, the refined layout squeezes it beyond the budget too: slit before
+    the first refinement, which then starts nearer its end, such a cap costs no round. One
+    sparse solve per island (:func:`.seeds.lscm`), where a round costs a refinement."""
+    V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
+    _, _, topo = topology_of(replace(problem, seams=seams), options)
+    unit = unit_of(V)
+    X = V[topo.vertex_of] / unit
+    islands = Islands(topo.vertex_island, topo.n_islands)
+    owner = owners.face[first_rows(topo.face_island, topo.n_islands)]
+    which = np.isin(owner, owners.charted)
+    none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
+    try:
+        uv = lscm(X, topo.faces, islands, FaceFrames(X, topo.faces), which)
+    except RuntimeError:  # SuperLU: "Factor is exactly singular": no prediction, the rounds decide
+        return none
+    layout = _Layout(V, F, uv[topo.corner_vertex], topo.face_island, topo.n_islands)
+    graph = face_graph(V, F, topo.face_island, np.vstack([seams, topo.cut_edges]), problem.inner_edges)
+    ratio = _area_ratio(layout, graph)
+    on = which[topo.face_island]
+    tips = _tips(graph, on & (ratio < -2.0 * _PREDICT * np.log(options.max_stretch)), ratio)
+    if not len(tips):
+        return none
+    slits, slit = _slits(layout, graph.among(on), tips, ratio)
+    return slits, np.unique(owner[slit])
+
+
+def _tips(graph: FaceGraph, squeezed: np.ndarray, ratio: np.ndarray) -> np.ndarray:
+    """The most squeezed face (by ``ratio``) of every connected region of ``squeezed``
+    faces (m,) bool: one per cap, (k,)."""
+    caps = _regions(graph, squeezed)
+    n_caps = int(caps.max(initial=-1)) + 1
+    depth = np.where(caps >= 0, ratio, np.inf)
+    return _extreme(depth, np.where(caps >= 0, caps, n_caps), np.arange(n_caps), np.minimum, np.inf)
 
 
 def _regions(graph: FaceGraph, faces: np.ndarray) -> np.ndarray:
@@ -332,7 +395,7 @@ def _regions(graph: FaceGraph, faces: np.ndarray) -> np.ndarray:
     return label
 
 
-def _area_ratio(result: Parametrization, graph: FaceGraph) -> np.ndarray:
+def _area_ratio(result: Parametrization | _Layout, graph: FaceGraph) -> np.ndarray:
     """Per face (m,), the log of its UV area over its 3D area against its island's,
     smoothed by ``_SMOOTH`` rounds of area-weighted averaging over its neighbours and
     rounded to ``1 / _GRID``: negative where the layout squeezes the surface, positive
@@ -374,7 +437,7 @@ def _balls(result: Parametrization, graph: FaceGraph, charts: np.ndarray, ratio:
 
 
 def _slits(
-    result: Parametrization, inside: FaceGraph, faces: np.ndarray, ratio: np.ndarray
+    result: Parametrization | _Layout, inside: FaceGraph, faces: np.ndarray, ratio: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Slits (k, 2 vertex pairs) from the boundary of each chart to a corner of its face in
     ``faces``, and the charts that got one (k,): the shortest paths, as laid out, over the
