@@ -62,7 +62,7 @@ from .options import Options, Problem
 from .pipeline import solve, topology_of
 from .refinement import FaceFrames
 from .report import SolverWarning, charted, cut_apart, opened, over_budget
-from .resolve import cut_further, pairs
+from .resolve import cut_further, pairs, sub_problem
 from .result import TOPOLOGY_WARNINGS, Parametrization, topology_warnings
 from .seeds import lscm
 from .topology import Topology
@@ -279,11 +279,13 @@ def _chart_energy(result: Parametrization, owners: _Owners, islands: np.ndarray 
     """Per island of ``result`` (a chart): its symmetric Dirichlet energy per area at its
     best scale, its 3D area (0 for charts of islands not in ``islands``, by default the
     charted ones, or without area), and the island it was cut from."""
-    per = metrics.per_island(result.vertices, result.faces, result.corner_uv, result.face_island)
+    sd, area = metrics.island_energy(
+        result.vertices, result.faces, result.corner_uv, result.face_island, result.n_islands
+    )
     owner = owners.face[first_rows(result.face_island, result.n_islands)]
     islands = owners.charted if islands is None else islands
-    ok = np.isin(owner, islands) & (per.area > 0) & np.isfinite(per.symmetric_dirichlet)
-    return np.where(ok, per.symmetric_dirichlet, 4.0), np.where(ok, per.area, 0.0), owner
+    ok = np.isin(owner, islands) & (area > 0) & np.isfinite(sd)
+    return np.where(ok, sd, 4.0), np.where(ok, area, 0.0), owner
 
 
 def _stretch_cuts(result: Parametrization, graph: FaceGraph, owners: _Owners, budget: float):
@@ -350,27 +352,28 @@ def _conformal_slits(
     beyond the budget, the refined layout squeezes it beyond the budget too: slit before
     the first refinement, which then starts nearer its end, such a cap costs no round. One
     sparse solve per island (:func:`.seeds.lscm`), where a round costs a refinement."""
+    faces = np.flatnonzero(np.isin(owners.face, owners.charted))  # the charted islands alone
+    problem, used = sub_problem(replace(problem, seams=seams), faces)
     V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
-    _, _, topo = topology_of(replace(problem, seams=seams), options)
+    # (two wedges of an island that other islands' faces separated meet at a bare vertex)
+    _, _, topo = topology_of(problem, replace(options, split_nonmanifold=True))
     unit = unit_of(V)
     X = V[topo.vertex_of] / unit
     islands = Islands(topo.vertex_island, topo.n_islands)
-    owner = owners.face[first_rows(topo.face_island, topo.n_islands)]
-    which = np.isin(owner, owners.charted)
+    owner = owners.face[faces[first_rows(topo.face_island, topo.n_islands)]]
     none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
     try:
-        uv = lscm(X, topo.faces, islands, FaceFrames(X, topo.faces), which)
+        uv = lscm(X, topo.faces, islands, FaceFrames(X, topo.faces), np.ones(topo.n_islands, dtype=bool))
     except RuntimeError:  # SuperLU: "Factor is exactly singular": no prediction, the rounds decide
         return none
     layout = _Layout(V, F, uv[topo.corner_vertex], topo.face_island, topo.n_islands)
-    graph = face_graph(V, F, topo.face_island, np.vstack([seams, topo.cut_edges]), problem.inner_edges)
+    graph = face_graph(V, F, topo.face_island, np.vstack([pairs(problem.seams), topo.cut_edges]), problem.inner_edges)
     ratio = _area_ratio(layout, graph)
-    on = which[topo.face_island]
-    tips = _tips(graph, on & (ratio < -2.0 * _PREDICT * np.log(options.max_stretch)), ratio)
+    tips = _tips(graph, ratio < -2.0 * _PREDICT * np.log(options.max_stretch), ratio)
     if not len(tips):
         return none
-    slits, slit = _slits(layout, graph.among(on), tips, ratio)
-    return slits, np.unique(owner[slit])
+    slits, slit = _slits(layout, graph, tips, ratio)
+    return used[slits], np.unique(owner[slit])
 
 
 def _tips(graph: FaceGraph, squeezed: np.ndarray, ratio: np.ndarray) -> np.ndarray:

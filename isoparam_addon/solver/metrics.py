@@ -65,6 +65,7 @@ __all__ = [
     "symmetric_dirichlet",
     "flipped",
     "folded",
+    "island_energy",
     "uv_islands",
     "Distortion",
     "distortion",
@@ -362,6 +363,26 @@ class IslandDistortion:
         return len(self.area)
 
 
+def island_energy(V, F, uv, face_island: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per island (k,): the symmetric Dirichlet energy per area at the island's best scale
+    (as :func:`per_island` has it, nan without area), and its 3D area; the part of
+    :func:`per_island` a caller that only weighs distortion needs."""
+    F = np.asarray(F, dtype=np.int64)
+    sig, area, ok = singular_values(V, F, corner_uvs(F, uv))
+    return _island_energy(sig, area * ok, Islands.labelled(np.asarray(face_island, dtype=np.int64), k))
+
+
+def _island_energy(sig: np.ndarray, w: np.ndarray, groups: Islands) -> tuple[np.ndarray, np.ndarray]:
+    """Per island: symmetric Dirichlet at its best scale from singular values ``sig``
+    (m, 2) and face weights (3D areas) ``w`` (m,), and the islands' weights."""
+    A3 = groups.sum(w)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        pos = groups.sum((sig**2).sum(axis=1) * w)
+        neg = groups.sum(np.where(w > 0, (1.0 / sig**2).sum(axis=1) * w, 0.0))
+        sd = np.where(A3 > 0, 2.0 * np.sqrt(pos * neg) / A3, np.nan)  # min over s of (s2 pos + neg / s2) / A3
+    return sd, A3
+
+
 def per_island(V, F, uv, face_island=None) -> IslandDistortion:
     """:class:`IslandDistortion` of a layout; islands are ``face_island`` (m,) or, if not
     given, the faces connected in UV space (:func:`uv_islands`)."""
@@ -372,12 +393,9 @@ def per_island(V, F, uv, face_island=None) -> IslandDistortion:
     groups = Islands.labelled(label, k)
     sig, area, ok = singular_values(V, F, cuv)
     w = area * ok
-    A3 = groups.sum(w)
     A2 = groups.sum(np.abs(corner_signed_areas(cuv)) * ok)
+    sd, A3 = _island_energy(sig, w, groups)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        pos = groups.sum((sig**2).sum(axis=1) * w)
-        neg = groups.sum(np.where(w > 0, (1.0 / sig**2).sum(axis=1) * w, 0.0))
-        sd = np.where(A3 > 0, 2.0 * np.sqrt(pos * neg) / A3, np.nan)  # min over s of (s2 pos + neg / s2) / A3
         scale = np.where(A2 > 0, np.sqrt(A3 / A2), np.inf)  # UV -> 3D area
         s = groups.expand(np.where(np.isfinite(scale), scale, 1.0)) * np.ones(len(F))
         small = sig[:, 1] * s  # the singular values of the scaled map

@@ -26,7 +26,7 @@ from .report import IslandReport, SolverWarning
 from .result import TOPOLOGY_WARNINGS, Parametrization, assemble
 from .topology import build_topology
 
-__all__ = ["Part", "carried_warnings", "combine", "cut_further", "pairs", "solve_islands"]
+__all__ = ["Part", "carried_warnings", "combine", "cut_further", "pairs", "solve_islands", "sub_problem"]
 
 # what a search's first solve decided, which solving some islands again does not say again
 _DECIDED = (*TOPOLOGY_WARNINGS, "extra_cuts", "charts")
@@ -58,6 +58,16 @@ def solve_islands(problem: Problem, faces: np.ndarray, options: Options) -> Part
     from ``problem.start`` if it holds a layout to go on from."""
     if len(faces) == len(np.asarray(problem.faces)):
         return Part(solve(problem, replace(options, pack=False)), faces, np.arange(len(np.asarray(problem.vertices))))
+    part, used = sub_problem(problem, faces)
+    # split_nonmanifold: two wedges of an island around a vertex that other islands' faces
+    # separated (with seams) meet at a bare vertex once those faces are left out
+    return Part(solve(part, replace(options, pack=False, split_nonmanifold=True)), faces, used)
+
+
+def sub_problem(problem: Problem, faces: np.ndarray) -> tuple[Problem, np.ndarray]:
+    """The problem of ``faces`` (k,, indices into the problem's faces) alone, over the
+    vertices they use, and those vertices (j,) (its vertex i is the problem's ``used[i]``):
+    seams and inner edges between two of them kept, per-face data taken."""
     V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
     used = np.unique(F[faces])
     index = np.full(len(V), -1, dtype=np.int64)
@@ -76,9 +86,7 @@ def solve_islands(problem: Problem, faces: np.ndarray, options: Options) -> Part
     part = Problem(
         V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins, start, tol, settle
     )
-    # split_nonmanifold: two wedges of an island around a vertex that other islands' faces
-    # separated (with seams) meet at a bare vertex once those faces are left out
-    return Part(solve(part, replace(options, pack=False, split_nonmanifold=True)), faces, used)
+    return part, used
 
 
 def cut_further(
