@@ -121,6 +121,20 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
     def execute(self, context):
         return unwrap.run(self, context, unwrap.Options(**self.as_keywords()))
 
+    def invoke(self, context, event):
+        """From the UI: solve in a worker thread, Blender responsive, Esc to cancel (scripts
+        and background mode call :meth:`execute`, which solves in this thread)."""
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        self._background = unwrap.Background(context, unwrap.Options(**self.as_keywords()))
+        if not self._background.running:
+            return self._background.conclude(self, context)
+        context.window_manager.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        return self._background.on_event(self, context, event.type, event.value)
+
 
 class UV_OT_isometric_show_stretch(bpy.types.Operator):
     """Colour the faces by how much the active UV map stretches the texture (white: none, red: 2x or more)"""

@@ -6,6 +6,8 @@ cancels the whole operation with the mesh and its UVs exactly as they were.
 
 from __future__ import annotations
 
+import logging
+import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -13,13 +15,13 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..solver import InvalidMeshError, metrics, parametrize
+from ..solver import Cancelled, InvalidMeshError, metrics, parametrize
 from ..solver.errors import counted, offenders
 from ..solver.placement import FAR, place_in_uv_space
 from ..solver.report import solver_names
 from . import mesh_io
 
-__all__ = ["STRETCH_ATTRIBUTE", "Options", "RunRecord", "last_run", "run", "show_stretch"]
+__all__ = ["STRETCH_ATTRIBUTE", "Background", "Options", "RunRecord", "Unwrap", "last_run", "run", "show_stretch"]
 
 STRETCH_ATTRIBUTE = "isoparam_stretch"  # the face colour attribute Show Stretch writes
 
@@ -218,8 +220,9 @@ class RunRecord:
     """What the last :func:`run` did, for scripts (the batch job, the benchmarks): where it
     spent its seconds (reading the meshes, the solver, with its own
     :class:`~isoparam_addon.solver.Timings` per mesh, writing the UVs, seams and stretch
-    colours, Blender's pack, and all of it, mode switches included), and the notes and
-    warnings it reported, as reported."""
+    colours, Blender's pack, and all of it, mode switches included), the notes and
+    warnings it reported, as reported, and the solver's own facts (``details``: what the
+    four steps met), which go to the ``isoparam`` logger at DEBUG level only."""
 
     read: float = 0.0
     solve: float = 0.0
@@ -229,9 +232,21 @@ class RunRecord:
     solver: list = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    details: list[str] = field(default_factory=list)
 
 
 last_run = RunRecord()
+
+_log = logging.getLogger("isoparam")
+
+
+@dataclass
+class _Input:
+    """One mesh to unwrap as read (object mode): all the solve needs, no Blender call."""
+
+    obj: bpy.types.Object
+    sel: mesh_io.Selection
+    aspect: float | None  # width / height of the image to correct for
 
 
 @dataclass
@@ -244,57 +259,240 @@ class _Solved:
     distortion: np.ndarray  # (t,) per unwrapped triangle
     stretch: metrics.StretchSummary
     warnings: list
-    notes: list  # what the unwrap did that the artist may want to know (charts, cuts, what the four steps met)
+    notes: list  # what the unwrap did that the artist may want to know (charts, cuts)
+    details: list  # what the solver met on the way (its four steps), for the debug log
     cuts: np.ndarray  # (k, 2) mesh vertex pairs of the edges it cut
 
 
+class _UnwrapError(Exception):
+    """A mesh that cannot be unwrapped: the report's words (nothing is written)."""
+
+
+class Unwrap:
+    """One run of Isometric Unwrap, in phases: :meth:`read` and :meth:`write` touch
+    Blender (main thread, object mode); :meth:`solve` touches only numpy, so it may run in
+    a worker thread while Blender stays responsive (:class:`Background`); :meth:`finish`
+    packs and reports (edit mode). Nothing is written unless every mesh was solved, and
+    nothing at all once a cancel was asked for."""
+
+    def __init__(self, context, opts: Options, wm=None):
+        self.opts = opts
+        space = getattr(context, "space_data", None)
+        self.sync = context.scene.tool_settings.use_uv_select_sync
+        self.uv_selection_locks = space is not None and space.type == "IMAGE_EDITOR" and not self.sync
+        self.objects = [ob for ob in context.objects_in_mode_unique_data if ob.type == "MESH"]
+        self.record = RunRecord()
+        self.inputs: list[_Input] = []
+        self.solved: list[_Solved] = []
+        self.error = ""  # why nothing is written
+        self.cancel_requested = self.cancelled = False
+        self.fraction, self.stage = 0.0, "reading"
+        self.wm = wm  # shows the progress as it goes (when solving in the main thread)
+        self.started = time.perf_counter()
+        self.pack = self.held = self.far = False
+        self.kept: list[_Kept] = []
+
+    def read(self) -> bool:
+        """Read the selection of every mesh (object mode); False if none has a face selected."""
+        for ob in self.objects:  # one read per mesh in edit mode
+            t = time.perf_counter()
+            sel = mesh_io.read_selection(
+                ob, world_space=self.opts.world_scale, uv_selection_locks=self.uv_selection_locks
+            )
+            self.record.read += time.perf_counter() - t
+            if not sel.empty:
+                self.inputs.append(_Input(ob, sel, _aspect(ob, sel) if self.opts.correct_aspect else None))
+        if not self.inputs:
+            self.error = "Isometric Unwrap: no faces selected. Select the faces to unwrap in edit mode"
+        return not self.error
+
+    def progressed(self, fraction: float, stage: str) -> bool:
+        """The solver's progress over the whole run (any thread); False once a cancel was asked."""
+        self.fraction, self.stage = max(self.fraction, fraction), stage
+        if self.wm is not None:
+            self.wm.progress_update(self.fraction)
+        return not self.cancel_requested
+
+    def solve(self) -> bool:
+        """Solve every mesh read (numpy only: any thread); False, with :attr:`error` or
+        :attr:`cancelled` set, if one cannot be solved or a cancel was asked for."""
+        total = sum(len(i.sel.F) for i in self.inputs)
+        done = 0
+        for inp in self.inputs:
+            lo, share = done / total, len(inp.sel.F) / total
+            name = f"'{inp.sel.name}': " if len(self.inputs) > 1 else ""
+
+            def progress(f: float, stage: str, lo=lo, share=share, name=name) -> bool:
+                return self.progressed(lo + share * f, name + stage)
+
+            t = time.perf_counter()
+            try:
+                solved, timings = _solve_one(inp, self.opts, progress)
+            except Cancelled:
+                self.cancelled = True
+                return False
+            except _UnwrapError as refused:
+                self.error = str(refused)
+                return False
+            except Exception as err:  # noqa: BLE001 - a solver failure must not leave a half-written mesh
+                why = f"{type(err).__name__}: {err}"
+                self.error = f"Isometric Unwrap failed on '{inp.sel.name}' ({why}). Nothing was changed"
+                return False
+            self.record.solve += time.perf_counter() - t
+            self.record.solver.append(timings)
+            self.solved.append(solved)
+            done += len(inp.sel.F)
+        return True
+
+    def write(self) -> None:
+        """Write the UVs (and seams, stretch colours) of every mesh solved (object mode), and
+        keep what the pack would change besides them."""
+        t_write = time.perf_counter()
+        opts, solved = self.opts, self.solved
+        for s in solved:  # one write per mesh
+            _write(s)
+            if opts.mark_seams:
+                mesh_io.mark_seams(s.obj.data, s.cuts)
+            if opts.show_stretch:
+                _write_stretch(s.obj.data, s.sel, s.distortion)
+        self.held = any(s.held.any() for s in solved)
+        # (a corner locked by the UV selection may keep a UV that is not finite)
+        self.far = any(not (np.abs(s.corner_uv) <= FAR).all() for s in solved)
+        # a single island was fitted into the unit square by place_in_uv_space already
+        # (Blender's pack would spend 0.17 s on it at 100k vertices)
+        self.pack = opts.pack and not self.far and (sum(s.n_islands for s in solved) > 1 or self.held)
+        if self.pack:  # what the pack changes besides the UVs, kept while the mesh arrays are at hand
+            reselects = not self.sync and _SYNC_RESELECTS
+            self.kept = _prepare_pack(solved, self.objects, self.uv_selection_locks, reselects)
+        self.record.write = time.perf_counter() - t_write
+
+    def refuse(self, op) -> set:
+        """Report why nothing was written."""
+        if self.cancelled or self.cancel_requested:
+            op.report({"INFO"}, "Isometric Unwrap cancelled: nothing was changed")
+        else:
+            op.report({"ERROR"}, self.error)
+        return {"CANCELLED"}
+
+    def finish(self, op, context) -> set:
+        """After :meth:`write`: Blender's pack (edit mode), then the report."""
+        if self.far and self.opts.pack:  # Blender's packer makes NaN of such UVs, or crashes
+            text = f"not packed: UVs beyond {FAR:.0e} or not finite (far pins, world scale, or a kept corner)"
+            self.record.warnings.append(text)
+            op.report({"WARNING"}, f"Isometric Unwrap: {text}")
+        if self.pack:
+            t_pack = time.perf_counter()
+            _pack(context, self.solved, self.opts, self.held or any(k.pins_set for k in self.kept), self.kept)
+            self.record.pack = time.perf_counter() - t_pack
+        self.record.total = time.perf_counter() - self.started
+        _report(op, self.solved, self.record)
+        return {"FINISHED"}
+
+
 def run(op, context, opts: Options) -> set:
-    """Unwrap the selected faces of every mesh in edit mode. Returns the operator result."""
-    t0 = time.perf_counter()
+    """Unwrap the selected faces of every mesh in edit mode, in this thread (scripts, the
+    redo panel, background mode). Returns the operator result."""
     global last_run
-    last_run = RunRecord()
     wm = context.window_manager
-    space = getattr(context, "space_data", None)
-    uv_editor = space is not None and space.type == "IMAGE_EDITOR"
-    sync = context.scene.tool_settings.use_uv_select_sync
-    objects = [ob for ob in context.objects_in_mode_unique_data if ob.type == "MESH"]
-    wm.progress_begin(0, 2 * len(objects) + 2)
+    job = Unwrap(context, opts, wm)
+    last_run = job.record
+    wm.progress_begin(0.0, 1.0)
     # in edit mode the Mesh arrays are stale: read and write them in object mode
     try:
         with _object_mode(context):
-            solved = _solve_all(op, objects, opts, wm, uv_editor and not sync)
-            if solved is None:
-                return {"CANCELLED"}
-            t_write = time.perf_counter()
-            for s in solved:  # one write per mesh
-                _write(s)
-                if opts.mark_seams:
-                    mesh_io.mark_seams(s.obj.data, s.cuts)
-                if opts.show_stretch:
-                    _write_stretch(s.obj.data, s.sel, s.distortion)
-            held = any(s.held.any() for s in solved)
-            # (a corner locked by the UV selection may keep a UV that is not finite)
-            far = any(not (np.abs(s.corner_uv) <= FAR).all() for s in solved)
-            # a single island was fitted into the unit square by place_in_uv_space already
-            # (Blender's pack would spend 0.17 s on it at 100k vertices)
-            pack = opts.pack and not far and (sum(s.n_islands for s in solved) > 1 or held)
-            # what the pack changes besides the UVs, kept while the mesh arrays are at hand
-            kept = _prepare_pack(solved, objects, uv_editor and not sync, not sync and _SYNC_RESELECTS) if pack else []
-            last_run.write = time.perf_counter() - t_write
-            wm.progress_update(2 * len(objects) + 1)
+            solved = job.read() and job.solve()
+            if solved:
+                job.write()
     finally:
         wm.progress_end()
-    if far and opts.pack:  # Blender's packer makes NaN of such UVs, or crashes
-        text = f"not packed: UVs beyond {FAR:.0e} or not finite (far pins, world scale, or a kept corner)"
-        last_run.warnings.append(text)
-        op.report({"WARNING"}, f"Isometric Unwrap: {text}")
-    if pack:
-        t_pack = time.perf_counter()
-        _pack(context, solved, opts, held or any(k.pins_set for k in kept), kept)
-        last_run.pack = time.perf_counter() - t_pack
-    last_run.total = time.perf_counter() - t0
-    _report(op, solved, last_run.total)
-    return {"FINISHED"}
+    return job.finish(op, context) if solved else job.refuse(op)
+
+
+_POLL = 0.1  # seconds between two looks at a solve running in the background
+# events a modal unwrap lets through: looking around the scene changes nothing
+_NAVIGATION = frozenset(
+    {
+        "MIDDLEMOUSE",
+        "WHEELUPMOUSE",
+        "WHEELDOWNMOUSE",
+        "MOUSEMOVE",
+        "INBETWEEN_MOUSEMOVE",
+        "TRACKPADPAN",
+        "TRACKPADZOOM",
+        "MOUSEROTATE",
+        "MOUSESMARTZOOM",
+        "NDOF_MOTION",
+    }
+)
+
+
+class Background:
+    """An :class:`Unwrap` whose solve runs in a worker thread while a modal operator
+    watches it (:meth:`on_event`): the progress shows in Blender's progress indicator and
+    status bar, Esc cancels, and every other event that could edit the mesh is held back
+    until the run ends (looking around the scene still works)."""
+
+    def __init__(self, context, opts: Options):
+        global last_run
+        self.job = Unwrap(context, opts)
+        last_run = self.job.record
+        self.thread: threading.Thread | None = None
+        self.timer = None
+        with _object_mode(context):
+            if not self.job.read():
+                return
+        self.thread = threading.Thread(target=self.job.solve, name="isoparam-unwrap", daemon=True)
+        self.thread.start()
+        wm = context.window_manager
+        if context.window is not None:
+            self.timer = wm.event_timer_add(_POLL, window=context.window)
+        wm.progress_begin(0.0, 1.0)
+
+    @property
+    def running(self) -> bool:
+        return self.thread is not None and self.thread.is_alive()
+
+    def on_event(self, op, context, kind: str, value: str = "PRESS") -> set:
+        """What the modal operator returns for an event of type ``kind``."""
+        if kind == "ESC" and value == "PRESS":
+            self.job.cancel_requested = True
+        elif kind in _NAVIGATION:
+            return {"PASS_THROUGH"}
+        if self.running:
+            if kind == "TIMER":
+                self._show(context)
+            return {"RUNNING_MODAL"}
+        return self.conclude(op, context)
+
+    def conclude(self, op, context) -> set:
+        """Once the solve has ended: write and finish, or report why not."""
+        self._close(context)
+        job = self.job
+        if self.thread is None or job.error or job.cancelled or job.cancel_requested:
+            return job.refuse(op)
+        with _object_mode(context):
+            job.write()
+        return job.finish(op, context)
+
+    def _show(self, context) -> None:
+        context.window_manager.progress_update(self.job.fraction)
+        what = "cancelling" if self.job.cancel_requested else f"{self.job.stage}, {self.job.fraction:.0%}"
+        _status(context, f"Isometric Unwrap: {what} (Esc to cancel)")
+
+    def _close(self, context) -> None:
+        wm = context.window_manager
+        if self.timer is not None:
+            wm.event_timer_remove(self.timer)
+            self.timer = None
+        if self.thread is not None:
+            wm.progress_end()
+        _status(context, None)
+
+
+def _status(context, text: str | None) -> None:
+    workspace = getattr(context, "workspace", None)
+    if workspace is not None:
+        workspace.status_text_set(text)
 
 
 # Switching sync selection rewrites the UV selection from the mesh selection in 5.0
@@ -380,18 +578,19 @@ def _pack(context, solved, opts: Options, pin: bool, kept: list[_Kept]) -> None:
 
 
 _NOTES = ("charts", "cut_apart")  # solver warnings that are news, not trouble: reported as INFO
-# what the solver says of the four-step layout: with refinement, which starts from it, the
+# what the solver says of its four-step layout: with refinement, which starts from it, the
 # refined layout is what counts (its folds, overlaps or stretch are warned about), so these
-# are news too; without, they are the layout's own trouble
+# go to the debug log; without, they are the layout's own trouble, said in the artist's words
 _FOUR_STEP = ("not_converged", "degenerate_scale", "degenerate_fans", "restarted")
 _OVERLAP = ("duplicate_face", "non_manifold_edge")  # what overlapping triangles raise
 _NOT_MANIFOLD = (*_OVERLAP, "non_manifold_vertex")  # what the solver splits when not strict
 _OVERLAP_WARNINGS = ("duplicate_faces", "non_manifold_edges")  # how the solver says it split them
 
 
-def _solve(sel: mesh_io.Selection, opts: Options, strict: bool = False):
+def _solve(sel: mesh_io.Selection, opts: Options, progress, strict: bool = False):
     """The solver's result for one selection, and its triangle corners' locks (t, 3) and old
-    UVs (t, 3, 2); ``strict``: refuse what is not a manifold instead of splitting it."""
+    UVs (t, 3, 2); ``progress`` as :func:`.parametrize` takes it; ``strict``: refuse what is
+    not a manifold instead of splitting it."""
     locked = sel.locked[sel.tri_loops]
     old = np.take(sel.uv, sel.tri_loops, axis=0).astype(np.float64)
     # a corner locked by the UV selection whose UV is not finite holds nothing in place: it
@@ -413,18 +612,19 @@ def _solve(sel: mesh_io.Selection, opts: Options, strict: bool = False):
         max_stretch=opts.max_stretch,
         extra_cuts=opts.extra_cuts,
         split_overlaps=opts.split_overlaps,
+        progress=progress,
     )
     return res, locked, old
 
 
-def _solve_as_blender_would(sel: mesh_io.Selection, opts: Options):
+def _solve_as_blender_would(sel: mesh_io.Selection, opts: Options, progress):
     """Solve one selection as Blender's unwrap takes it: where its triangulation repeats a
     triangle or puts three faces on an edge, quads split along their other diagonal when
     that clears it; what is still not a manifold is split (a seam, an island of its own)
     with a warning. Returns the selection solved, the solver's result, locks and old UVs,
     and the words on overlapping faces if they were split."""
     try:
-        return sel, *_solve(sel, opts, strict=True), ""
+        return sel, *_solve(sel, opts, progress, strict=True), ""
     except InvalidMeshError as err:
         if err.kind not in _NOT_MANIFOLD:
             raise
@@ -435,76 +635,51 @@ def _solve_as_blender_would(sel: mesh_io.Selection, opts: Options):
         other = mesh_io.other_diagonals(sel) if err.kind in _OVERLAP else None
     if other is not None:
         try:
-            return other, *_solve(other, opts, strict=True), ""
+            return other, *_solve(other, opts, progress, strict=True), ""
         except InvalidMeshError as err:
             if err.kind not in _NOT_MANIFOLD:
                 raise
-    return sel, *_solve(sel, opts, strict=False), overlap
+    return sel, *_solve(sel, opts, progress, strict=False), overlap
 
 
-def _solve_all(op, objects, opts: Options, wm, uv_selection_locks: bool):
-    """Read and solve every mesh; None (after an ERROR report) if any cannot be solved."""
-    selections = []
-    for k, ob in enumerate(objects):  # one read per mesh in edit mode
-        t = time.perf_counter()
-        sel = mesh_io.read_selection(ob, world_space=opts.world_scale, uv_selection_locks=uv_selection_locks)
-        last_run.read += time.perf_counter() - t
-        wm.progress_update(k)
-        if not sel.empty:
-            selections.append((ob, sel))
-    if not selections:
-        op.report({"ERROR"}, "Isometric Unwrap: no faces selected. Select the faces to unwrap in edit mode")
-        return None
-    solved = []
-    for k, (ob, sel) in enumerate(selections):
-        t = time.perf_counter()
-        try:
-            sel, res, locked, old, overlap = _solve_as_blender_would(sel, opts)
-        except InvalidMeshError as err:
-            op.report({"ERROR"}, "Isometric Unwrap: " + _describe(err, sel) + ". Nothing was changed")
-            return None
-        except Exception as err:  # noqa: BLE001 - a solver failure must not leave a half-written mesh
-            why = f"{type(err).__name__}: {err}"
-            op.report({"ERROR"}, f"Isometric Unwrap failed on '{sel.name}' ({why}). Nothing was changed")
-            return None
-        last_run.solve += time.perf_counter() - t
-        last_run.solver.append(res.timings)
-        if not np.isfinite(res.corner_uv).all():
-            op.report({"ERROR"}, f"Isometric Unwrap gave non-finite UVs on '{sel.name}'. Nothing was changed")
-            return None
-        wm.progress_update(len(objects) + k)
-        aspect = _aspect(ob, sel) if opts.correct_aspect else None
-        uv, held = place_in_uv_space(
-            res.corner_uv,
-            res.face_island,
-            res.n_islands,
-            locked=locked,
-            old=old,
-            in_place=not opts.pack,
-            world_scale=opts.world_scale,
-            aspect=aspect,
-            margin=opts.margin if opts.pack else 0.0,
-            corner_vertex=sel.F,
+def _solve_one(inp: _Input, opts: Options, progress) -> tuple[_Solved, object]:
+    """Solve one mesh read and place it in UV space (numpy only); its record and the
+    solver's timings. Raises :class:`_UnwrapError` with the report's words when it cannot be
+    unwrapped, :class:`~isoparam_addon.solver.Cancelled` when ``progress`` says stop."""
+    sel = inp.sel
+    try:
+        sel, res, locked, old, overlap = _solve_as_blender_would(sel, opts, progress)
+    except InvalidMeshError as err:
+        raise _UnwrapError("Isometric Unwrap: " + _describe(err, sel) + ". Nothing was changed") from None
+    if not np.isfinite(res.corner_uv).all():
+        raise _UnwrapError(f"Isometric Unwrap gave non-finite UVs on '{sel.name}'. Nothing was changed")
+    uv, held = place_in_uv_space(
+        res.corner_uv,
+        res.face_island,
+        res.n_islands,
+        locked=locked,
+        old=old,
+        in_place=not opts.pack,
+        world_scale=opts.world_scale,
+        aspect=inp.aspect,
+        margin=opts.margin if opts.pack else 0.0,
+        corner_vertex=sel.F,
+    )
+    with np.errstate(over="ignore"):
+        stored = uv[~locked].astype(np.float32)  # what the UV map would hold (locked: as it was)
+    if not np.isfinite(stored).all():
+        raise _UnwrapError(
+            f"Isometric Unwrap: the UVs of '{sel.name}' would be beyond the range of Blender's UV map "
+            "(True World Scale on a mesh this large?). Nothing was changed"
         )
-        with np.errstate(over="ignore"):
-            stored = uv[~locked].astype(np.float32)  # what the UV map would hold (locked: as it was)
-        if not np.isfinite(stored).all():
-            op.report(
-                {"ERROR"},
-                f"Isometric Unwrap: the UVs of '{sel.name}' would be beyond the range of Blender's UV map "
-                "(True World Scale on a mesh this large?). Nothing was changed",
-            )
-            return None
-        per_face, summary = metrics.face_stretch(sel.V, sel.F, uv)
-        news = _NOTES + (_FOUR_STEP if opts.refine else ())
-        warnings = _warnings(res, sel, news)
-        if overlap:  # the same cut in the triangulation's terms, which Select Non Manifold cannot show
-            gone = {w.worded(_mesh_names(sel)) for w in res.warnings if w.kind in _OVERLAP_WARNINGS}
-            warnings = [overlap] + [w for w in warnings if w not in gone]
-        notes = [w.worded(_mesh_names(sel)) for w in res.warnings if w.kind in news]
-        cuts = sel.vert_ids[res.cut_edges] if len(res.cut_edges) else np.zeros((0, 2), dtype=np.int64)
-        solved.append(_Solved(ob, sel, uv, held, res.n_islands, per_face, summary, warnings, notes, cuts))
-    return solved
+    per_face, summary = metrics.face_stretch(sel.V, sel.F, uv)
+    warnings, notes, details = _sorted_words(res, sel, opts)
+    if overlap:  # the same cut in the triangulation's terms, which Select Non Manifold cannot show
+        gone = {w.worded(_mesh_names(sel)) for w in res.warnings if w.kind in _OVERLAP_WARNINGS}
+        warnings = [overlap] + [w for w in warnings if w not in gone]
+    cuts = sel.vert_ids[res.cut_edges] if len(res.cut_edges) else np.zeros((0, 2), dtype=np.int64)
+    solved = _Solved(inp.obj, sel, uv, held, res.n_islands, per_face, summary, warnings, notes, details, cuts)
+    return solved, res.timings
 
 
 def _write(s: _Solved) -> None:
@@ -526,39 +701,74 @@ def _write_stretch(me, sel: mesh_io.Selection, distortion: np.ndarray) -> None:
     mesh_io.write_face_colours(me, STRETCH_ATTRIBUTE, metrics.stretch_colours(worst), faces)
 
 
-def _warnings(res, sel: mesh_io.Selection, news: tuple[str, ...]) -> list[str]:
-    """The solver's warnings but those of the kinds ``news`` (reported as notes), with mesh
-    faces and vertices named as Blender numbers them, as they hold for what the operator
+def _sorted_words(res, sel: mesh_io.Selection, opts: Options) -> tuple[list[str], list[str], list[str]]:
+    """The solver's warnings as the report says them, mesh faces and vertices named as
+    Blender numbers them: warnings (what may need the artist), notes (what the unwrap did:
+    charts, cuts) and details (what its four steps met: debug log only, or, without
+    refinement, also a warning in the artist's words). As they hold for what the operator
     writes: the solver holds a vertex whose corners are pinned to different UVs at their
-    mean, but pins never move here (``place_in_uv_space`` puts every pinned corner back on
-    its own UV)."""
+    mean, but pins never move here (``place_in_uv_space`` puts every pinned corner back
+    on its own UV)."""
     names = _mesh_names(sel)
-    out = [w.worded(names) for w in res.warnings if w.kind != "pin_conflict" and w.kind not in news]
+    warnings, notes, details = [], [], []
+    for w in res.warnings:
+        if w.kind in _NOTES:
+            notes.append(w.worded(names))
+        elif w.kind in _FOUR_STEP:
+            details.append(w.worded(names))
+            if not opts.refine:
+                warnings.append(_fast_layout_words(w, names))
+        elif w.kind != "pin_conflict":
+            warnings.append(w.worded(names))
     if res.stats.pin_conflicts:
-        out.append(
+        warnings.append(
             f"{counted(res.stats.pin_conflicts, 'pinned vertex has', 'pinned vertices have')} corners pinned "
             "to different UVs: each corner "
             "stays on its pin, so the faces around them stretch between the pins "
             "(unpin all but one UV of each to avoid it)"
         )
-    return out
+    return warnings, notes, details
 
 
-def _report(op, solved, seconds: float) -> None:
+def _fast_layout_words(w, names) -> str:
+    """What the four steps met (a warning of a ``_FOUR_STEP`` kind), said to an artist who
+    unwrapped with Refinement 0, and what to do about it."""
+    n = w.count
+    first = f" (first: {names(w.element, w.first)})" if w.first else ""
+    was = "was" if n == 1 else "were"
+    if w.kind == "degenerate_fans":
+        what = f"around {counted(n, 'vertex', 'vertices')} the faces are too thin to lay out exactly"
+    elif w.kind == "restarted":
+        what = (
+            f"{counted(n, 'island', 'islands')} would fold in the fast layout and {was} laid out with "
+            f"angles kept instead, areas uneven{first}"
+        )
+    elif w.kind == "degenerate_scale":
+        what = f"{counted(n, 'island', 'islands')} could not be sized to the model and may be too large or small"
+    else:  # not_converged
+        what = f"{counted(n, 'island', 'islands')} {was} laid out before the fast solve settled{first}"
+    return f"{what}: a Refinement above 0 corrects it"
+
+
+def _report(op, solved, record: RunRecord) -> None:
     islands = sum(s.n_islands for s in solved)
     worst, mean, _ = metrics.combine_stretch([s.stretch for s in solved])
     where = f" on {len(solved)} meshes" if len(solved) > 1 else ""
     op.report(
         {"INFO"},
-        f"Isometric Unwrap: {islands} island(s){where}, stretch worst {worst:#.3g} mean {mean:#.4g}, {seconds:.2f} s",
+        f"Isometric Unwrap: {counted(islands, 'island', 'islands')}{where}, stretch worst {worst:#.3g} "
+        f"mean {mean:#.4g}, {record.total:.2f} s",
     )
     for s in solved:  # notes and warnings per mesh
         for note in s.notes:
-            last_run.notes.append(f"'{s.sel.name}': {note}")
+            record.notes.append(f"'{s.sel.name}': {note}")
             op.report({"INFO"}, f"Isometric Unwrap, '{s.sel.name}': {note}")
         for w in s.warnings:
-            last_run.warnings.append(f"'{s.sel.name}': {w}")
+            record.warnings.append(f"'{s.sel.name}': {w}")
             op.report({"WARNING"}, f"Isometric Unwrap, '{s.sel.name}': {w}")
+        for detail in s.details:
+            record.details.append(f"'{s.sel.name}': {detail}")
+            _log.debug("'%s': %s", s.sel.name, detail)
 
 
 def show_stretch(op, context) -> set:

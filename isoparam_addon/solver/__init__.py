@@ -28,6 +28,7 @@ from .cuts import with_extra_cuts
 from .errors import InvalidMeshError, IsoparamError, SolverError
 from .options import Options, Problem
 from .pipeline import solve
+from .progress import Cancelled, ProgressCallback, stage, tracking
 from .report import IslandReport, SolverWarning, Stats, Timings
 from .result import Parametrization
 from .untangle import without_overlaps
@@ -43,6 +44,7 @@ __all__ = [
     "IsoparamError",
     "InvalidMeshError",
     "SolverError",
+    "Cancelled",
     "metrics",
 ]
 
@@ -55,6 +57,7 @@ def parametrize(
     pins=None,
     inner_edges=None,
     options: Options | None = None,
+    progress: ProgressCallback | None = None,
     **option_values,
 ) -> Parametrization:
     """Unwrap a triangle mesh with Sun & Hancock's isometric parametrization.
@@ -77,6 +80,11 @@ def parametrize(
     options : Options, optional
         How to solve; ``option_values`` (the fields of :class:`Options`, e.g.
         ``refine=100``) override it.
+    progress : callable(fraction: float, stage: str) -> bool | None, optional
+        Called as the solve goes (at stage changes, and at most every 0.05 s within one):
+        the fraction done, never decreasing, first 0 and last 1.0 (stage ``"done"``), and
+        the stage's name (``"refinement"``, ``"charting, round 2, refinement"``...).
+        Returning ``False`` stops the solve: it raises :class:`Cancelled` from that call.
 
     Returns
     -------
@@ -86,16 +94,20 @@ def parametrize(
     ------
     InvalidMeshError
         For invalid input (see :func:`.mesh.check`); nothing is modified in place.
+    Cancelled
+        When ``progress`` returned ``False``; nothing is modified in place.
     """
     options = replace(options or Options(), **option_values)
     problem = Problem(vertices, faces, seams, inner_edges, pins)
     problem = replace(problem, inner_edges=_off_pins(problem))
-    with retained(enabled=_is_large(vertices)):
+    with retained(enabled=_is_large(vertices)), tracking(progress):
         if options.charts:  # (cuts apart what overlaps itself too)
             return with_charts(problem, options)
-        result = with_extra_cuts(problem, options) if options.extra_cuts > 0 else solve(problem, options)
+        with stage("", 0.0, 0.9 if options.split_overlaps else 1.0):
+            result = with_extra_cuts(problem, options) if options.extra_cuts > 0 else solve(problem, options)
         if options.split_overlaps and (result.islands.crossings > 0).any():
-            result = without_overlaps(result, problem, options)
+            with stage("overlap cuts", 0.9, 1.0):
+                result = without_overlaps(result, problem, options)
         return result
 
 

@@ -69,9 +69,15 @@ class _Deferred:
 def background(enabled: bool):
     """A one-worker pool for work that can run beside the calling thread (SuperLU and
     numpy release the GIL), or, when not ``enabled`` (small problems, where a thread
-    hand-off costs more than it saves), a stand-in that runs each task on demand."""
+    hand-off costs more than it saves), a stand-in that runs each task on demand. An
+    exception leaves without waiting for the task running beside (it ends on its own)."""
     if not enabled:
         yield _Inline()
         return
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="isoparam-background") as pool:
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isoparam-background")
+    try:
         yield pool
+    except BaseException:  # (a cancel): leave at once, the running task's result unread
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)

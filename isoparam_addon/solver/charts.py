@@ -60,6 +60,7 @@ from .mesh import HalfEdges, edge_mask, pair_keys, unit_of
 from .mincut import FaceGraph, face_graph, minimum_cut, source_side
 from .options import Options, Problem
 from .pipeline import solve, topology_of
+from .progress import geometric, stage, tick
 from .refinement import FaceFrames
 from .report import SolverWarning, charted, cut_apart, opened, over_budget
 from .resolve import cut_further, pairs, sub_problem
@@ -111,19 +112,23 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     as ``options.max_stretch`` allows (:func:`energy_budget`) at most; with
     ``options.split_overlaps``, charts that overlap themselves are cut apart."""
     t0 = time.perf_counter()
-    built = topology_of(problem, options)
+    with stage("topology", 0.0, 0.03):
+        built = topology_of(problem, options)
     V, F, topo = built
     seams = pairs(problem.seams)
     problem = replace(problem, vertices=V, faces=F)
     t_topology = time.perf_counter() - t0
-    owners = _owners(problem, V, F, topo, options.chart_disks)
+    with stage("charting", 0.03, 0.04):
+        owners = _owners(problem, V, F, topo, options.chart_disks)
     if owners.graph is None:  # nothing to chart: the solve as without charts, topology reused
-        result = solve(problem, options, built)
+        with stage("", 0.03, 0.9):
+            result = solve(problem, options, built)
         result.timings.topology += t_topology
         result.timings.charts = time.perf_counter() - t0 - t_topology - result.timings.total
         result.timings.total += t_topology + result.timings.charts
         if options.split_overlaps and (result.islands.crossings > 0).any():
-            result = without_overlaps(result, problem, options)
+            with stage("overlap cuts", 0.9, 1.0):
+                result = without_overlaps(result, problem, options)
         result.warnings += _over_budget(result, owners, options.max_stretch, options.refine > 0)
         return result
     settle = np.isin(owners.face, owners.charted)  # (only where charts are cut)
@@ -132,38 +137,46 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
         refine_tol=np.where(settle, min(options.refine_tol, _SETTLED), options.refine_tol),
         settle_above=np.where(settle, 4.0 + _DECIDING * (energy_budget(options.max_stretch) - 4.0), np.inf),
     )
-    cells = _cell_boundaries(owners.graph, owners.face, owners.charted[owners.curved[owners.charted]])
-    slits, slit = _conformal_slits(problem, options, np.vstack([seams, cells]), owners)
+    with stage("charting", 0.04, 0.05):
+        cells = _cell_boundaries(owners.graph, owners.face, owners.charted[owners.curved[owners.charted]])
+    with stage("charting", 0.05, 0.08):
+        slits, slit = _conformal_slits(problem, options, np.vstack([seams, cells]), owners)
     first = np.vstack([cells, slits])  # the cuts of the first solve
-    if len(first):
-        result = solve(replace(problem, seams=np.vstack([seams, first])), options)
-    else:
-        result = solve(problem, options, built)
+    with stage("charting", 0.08, 0.5):
+        if len(first):
+            result = solve(replace(problem, seams=np.vstack([seams, first])), options)
+        else:
+            result = solve(problem, options, built)
     first_solve = result.timings.total
     result.cut_edges = np.vstack([first, result.cut_edges])
     rounds = 0
     stretch_cut = np.zeros(topo.n_islands, dtype=bool)  # islands cut where they stretched
     stretch_cut[slit] = True
-    for rounds in range(1, _ROUNDS + 1):
-        # split what stretches too much, and cut apart what overlaps itself, in one solve
-        seams_now = np.vstack([seams, result.cut_edges])
-        graph = face_graph(V, F, result.face_island, seams_now, problem.inner_edges)
-        new, split = _stretch_cuts(result, graph, owners, options.max_stretch)
-        stretch_cut[owners.face[first_rows(result.face_island, result.n_islands)[split]]] = True
-        overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
-        if len(overlapping):
-            apart = separating_cuts(result, problem, overlapping, graph)
-            result.stats.overlap_cuts += len(apart)
-            new, split = np.vstack([new, apart]), np.union1d(split, overlapping)
-        if not len(new):
-            rounds -= 1
-            break
-        result = cut_further(result, problem, new, split, options)
+    with stage("charting", 0.5, 0.9):  # rounds: cut, solve the islands cut again
+        for rounds in range(1, _ROUNDS + 1):
+            # split what stretches too much, and cut apart what overlaps itself, in one solve
+            seams_now = np.vstack([seams, result.cut_edges])
+            graph = face_graph(V, F, result.face_island, seams_now, problem.inner_edges)
+            tick()
+            new, split = _stretch_cuts(result, graph, owners, options.max_stretch)
+            tick()
+            stretch_cut[owners.face[first_rows(result.face_island, result.n_islands)[split]]] = True
+            overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
+            if len(overlapping):
+                apart = separating_cuts(result, problem, overlapping, graph)
+                result.stats.overlap_cuts += len(apart)
+                new, split = np.vstack([new, apart]), np.union1d(split, overlapping)
+            if not len(new):
+                rounds -= 1
+                break
+            with stage(f"round {rounds + 1}", *geometric(rounds)):
+                result = cut_further(result, problem, new, split, options)
     result.cut_islands = topo.cut_islands
     result.timings.topology += t_topology
     result.timings.charts = time.perf_counter() - t0 - first_solve - t_topology
     if options.split_overlaps and (result.islands.crossings > 0).any():
-        result = without_overlaps(result, problem, options)
+        with stage("overlap cuts", 0.9, 1.0):
+            result = without_overlaps(result, problem, options)
     result.warnings = _warnings(result, owners, stretch_cut, options.max_stretch, options.refine > 0)
     cut = _cut_by_charting(result, owners, stretch_cut)
     result.stats.charts = int(len(np.unique(result.face_island[np.isin(owners.face, cut)])))
@@ -228,7 +241,8 @@ def _cell_boundaries(graph: FaceGraph, face_island: np.ndarray, islands: np.ndar
     far = csgraph.dijkstra(G, directed=False, indices=first_rows(face_island)[islands], min_only=True)
     seeds = [_farthest(far, on, face_island, islands)]
     reach = [csgraph.dijkstra(G, directed=False, indices=seeds[0], min_only=True)]
-    for _ in range(_CELLS - 1):
+    for j in range(_CELLS - 1):
+        tick(j / (2 * _CELLS))
         seeds.append(_farthest(np.min(reach, axis=0), on, face_island, islands))
         reach.append(csgraph.dijkstra(G, directed=False, indices=seeds[-1], min_only=True))
     distance = np.array(reach)  # (cells, m): from every island's j-th seed
@@ -240,6 +254,7 @@ def _cell_boundaries(graph: FaceGraph, face_island: np.ndarray, islands: np.ndar
         loose = on & (near[1] - near[0] < _BAND * radius[face_island])  # where a boundary may move
     open_ = on.copy()  # faces not placed in a cell yet
     for j in range(_CELLS - 1):
+        tick(0.5 + j / (2 * _CELLS))
         source = open_ & (cell == j) & ~loose
         sink = open_ & (cell > j) & ~loose
         side = source_side(graph.among(open_), source, sink) & open_
@@ -357,6 +372,7 @@ def _conformal_slits(
     V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
     # (two wedges of an island that other islands' faces separated meet at a bare vertex)
     _, _, topo = topology_of(problem, replace(options, split_nonmanifold=True))
+    tick(0.3)
     unit = unit_of(V)
     X = V[topo.vertex_of] / unit
     islands = Islands(topo.vertex_island, topo.n_islands)
@@ -366,8 +382,10 @@ def _conformal_slits(
         uv = lscm(X, topo.faces, islands, FaceFrames(X, topo.faces), np.ones(topo.n_islands, dtype=bool))
     except RuntimeError:  # SuperLU: "Factor is exactly singular": no prediction, the rounds decide
         return none
+    tick(0.6)
     layout = _Layout(V, F, uv[topo.corner_vertex], topo.face_island, topo.n_islands)
     graph = face_graph(V, F, topo.face_island, np.vstack([pairs(problem.seams), topo.cut_edges]), problem.inner_edges)
+    tick(0.8)
     ratio = _area_ratio(layout, graph)
     tips = _tips(graph, ratio < -2.0 * _PREDICT * np.log(options.max_stretch), ratio)
     if not len(tips):

@@ -30,6 +30,7 @@ from .geometry import corner_signed_areas, face_areas
 from .mesh import HalfEdges, edge_mask
 from .options import Options, Problem
 from .pipeline import solve
+from .progress import geometric, stage
 from .report import lowered
 from .resolve import Part, combine, pairs, solve_islands
 from .result import TOPOLOGY_WARNINGS, Parametrization
@@ -152,7 +153,8 @@ def with_extra_cuts(problem: Problem, options: Options) -> Parametrization:
     (:func:`_grow`); the result is the first solve with the kept tries' islands put in
     (:func:`.resolve.combine`). Nothing is solved twice.
     """
-    first = solve(problem, options)
+    with stage("", 0.0, 0.5):
+        first = solve(problem, options)
     if not first.cut_islands.size:  # nothing was cut open
         return first
     t0 = time.perf_counter()
@@ -207,7 +209,8 @@ def _grow(first: Parametrization, problem: Problem, options: Options):
         # refines it on, rather than starting again from the four steps
         start = layout if options.refine else None
         trying = replace(problem, vertices=V, faces=F, seams=np.vstack([base, cuts, new]), start=start)
-        part = solve_islands(trying, np.flatnonzero(np.isin(isl, active)), options)
+        with stage(f"extra cut {tries}", *(0.5 + 0.5 * f for f in geometric(tries))):
+            part = solve_islands(trying, np.flatnonzero(np.isin(isl, active)), options)
         trial, faces = part.result, part.faces
         if trial.n_islands != len(active) or trial.cut_islands.size:  # a slit keeps one disk
             gains.append(None)  # tried, not measured

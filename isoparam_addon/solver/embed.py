@@ -52,6 +52,7 @@ from scipy.sparse.linalg import splu
 from ._parallel import solve_columns
 from .islands import Islands
 from .ordering import nested_dissection
+from .progress import tick
 
 __all__ = ["Embedding", "EmbeddingTimings", "Plan", "choose_anchors", "plan_elimination", "spectral_embedding"]
 
@@ -414,6 +415,7 @@ def spectral_embedding(
     iterations = 0
     rest = None
     for iterations in range(1, max_iter + 1):  # inverse iterations, a handful per mesh  # noqa: B007
+        tick(iterations / (iterations + 4))
         # preconditioned residual with the exact inverse on the free block
         R = L.T @ LY - Y * np.where(np.isfinite(mu), mu, 0.0)[islands.label, : Y.shape[1]]
         W = pls.solve_mff(R)

@@ -25,6 +25,7 @@ from .mesh import unit_of
 from .options import Options, Problem
 from .pins import Pins, layout_on_pins, pins_on_islands
 from .placement import place
+from .progress import stage
 from .refinement import Proxy, Refinement, quadratic_proxy, refine, unfolded
 from .report import IslandReport, Stats, Timings
 from .result import Parametrization, assemble
@@ -53,7 +54,8 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
     """Parametrize ``problem`` with ``options`` (see :func:`.parametrize`); ``built``, if
     given, is what :func:`topology_of` returned for it, not built again."""
     clock = _Clock()
-    V, F, topo = built or topology_of(problem, options)
+    with stage("topology", 0.0, 0.05):
+        V, F, topo = built or topology_of(problem, options)
     unit = unit_of(V)  # work in units of a power of two near the mesh's size (exact)
     X = V[topo.vertex_of] / unit
     islands = Islands(topo.vertex_island, topo.n_islands)
@@ -97,17 +99,19 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
     solve_refined = refined if options.refine else None
     held = reached = None
     info = None
-    if solve_refined is None and options.unfold:  # folded islands laid out again, fold-free
-        info = unfolded(X, topo.faces, Y, islands, topo.he.twin, order)
-        Y = info.uv
-    if pins is not None:
-        Y, shaped, reached, held = layout_on_pins(Y, topo.faces, islands, pins, solve_refined)
-        info = shaped if shaped is not None else info
-    elif solve_refined is not None:
-        info = solve_refined(Y, None)
-        Y = info.uv
+    with stage("refinement", 0.32, 0.97):
+        if solve_refined is None and options.unfold:  # folded islands laid out again, fold-free
+            info = unfolded(X, topo.faces, Y, islands, topo.he.twin, order)
+            Y = info.uv
+        if pins is not None:
+            Y, shaped, reached, held = layout_on_pins(Y, topo.faces, islands, pins, solve_refined)
+            info = shaped if shaped is not None else info
+        elif solve_refined is not None:
+            info = solve_refined(Y, None)
+            Y = info.uv
     clock.lap("refine")
-    placed = place(Y, islands, pack=options.pack, margin=options.margin, fixed=held)
+    with stage("placement", 0.97, 1.0):
+        placed = place(Y, islands, pack=options.pack, margin=options.margin, fixed=held)
     clock.lap("placement")
     report = _island_report(islands, emb, clipped, flagged, pins, held, reached, info, unit)
     return _result(V, F, topo, placed, unit, emb, report, info, clock)
@@ -129,15 +133,21 @@ def topology_of(problem: Problem, options: Options):
 def _four_steps(X, topo: Topology, islands: Islands, options: Options, plan, clock: _Clock):
     """Sun & Hancock's four steps: the layout (n, 2), Step 3's embedding, the islands
     whose Step 4 scale was clipped and the vertices Step 2 flagged."""
-    patches = local_flattening(X, topo.faces, topo.fans)  # Step 1
+    with stage("local flattening", 0.05, 0.1):
+        patches = local_flattening(X, topo.faces, topo.fans)  # Step 1
     clock.lap("local")
-    L, flagged = reconstruction_weights(X, topo.faces, topo.he.twin, patches, len(X))  # Step 2
+    with stage("weights", 0.1, 0.15):
+        L, flagged = reconstruction_weights(X, topo.faces, topo.he.twin, patches, len(X))  # Step 2
     clock.lap("weights")
-    emb = spectral_embedding(L, X, islands, tol=options.tol, max_iter=options.max_iter, plan=plan.result())  # Step 3
+    with stage("embedding", 0.15, 0.3):
+        elimination = plan.result()
+        emb = spectral_embedding(L, X, islands, tol=options.tol, max_iter=options.max_iter, plan=elimination)  # Step 3
     clock.lap("embedding")
     edges = topo.he.edge_vertices  # Step 4
-    Y, _, clipped = fit_rotation_scale(emb.coords, edges, edge_lengths(X, edges), islands.label[edges[:, 0]], islands)
-    Y = orient(Y, topo.faces, topo.face_island, islands)
+    with stage("alignment", 0.3, 0.32):
+        lengths = edge_lengths(X, edges)
+        Y, _, clipped = fit_rotation_scale(emb.coords, edges, lengths, islands.label[edges[:, 0]], islands)
+        Y = orient(Y, topo.faces, topo.face_island, islands)
     clock.lap("align")
     return Y, emb, clipped, flagged
 

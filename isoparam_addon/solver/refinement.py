@@ -60,6 +60,7 @@ from .geometry import signed_double_areas, triangles
 from .islands import Islands
 from .mesh import unique_edges
 from .ordering import nested_dissection
+from .progress import tick
 from .seeds import lscm, tutte
 
 __all__ = ["FaceFrames", "Proxy", "Refinement", "quadratic_proxy", "refine", "slim_weights", "unfolded"]
@@ -75,6 +76,7 @@ _REFRESH_EVERY = 20  # ... or after this many iterations
 _SLIM_STEPS = 30  # at most this many SLIM steps from a start far from isometric
 _BLOCKS = 8  # the proxy's factors are kept for at most this many groups of islands
 _STILL = 1e-3  # an island to settle stops once its faces' log area ratios moved less than this (RMS) over the window
+_HALFWAY = 100  # progress: the iteration count reported as half of the refinement (it stops when converged)
 _SLIM_DROP = 0.3  # ... each lowering the energy by this much (relative)
 
 
@@ -528,6 +530,7 @@ class _Descent:
         fr, islands, per_face = self.frames, self.islands, self.per_face
         stepping = self.active.copy()
         for k in range(max(steps, _SLIM_STEPS)):  # local/global steps
+            tick()
             far = stepping & self.reweighting & (self.E > _NEAR * 4.0 * self.island_area)
             stepping &= far | (k < steps)
             if not stepping.any():
@@ -790,6 +793,7 @@ def refine(
     out.energy += [float(e.sum()) / max(d.live_area, 1e-300) for e in d.trace]
     g = d.gradient(d.G)
     for it in range(1, iterations + 1):  # quasi-Newton steps, each one factored solve
+        tick(it / (it + _HALFWAY))
         d.refresh(it)
         p, slope = d.direction(g)
         t, Jt, Et, Gt, dJ = d.line_search(p, slope)

@@ -311,7 +311,7 @@ def defects(found) -> list[SolverWarning]:
         n = len(found.bowties)
         template = (
             f"{counted(n, 'vertex joins', 'vertices join')} faces that share no edge around "
-            f"{'it' if n == 1 else 'them'} (first: {{first}}): split, one copy per fan"
+            f"{'it' if n == 1 else 'them'} (first: {{first}}): split into one copy for each group of faces"
         )
         out.append(_warning("bowties", n, "vertex", found.bowties[0], template))
     return out
@@ -401,8 +401,8 @@ def _step_warnings(islands: IslandReport, converged: np.ndarray) -> list[SolverW
         i = int(stuck[0])
         template = (
             f"the refinement left {counted(stuck.size, 'island', 'islands')} far from isometric (first: {{first}}, "
-            f"symmetric Dirichlet {energy[i] / area[i]:.3g} per area, 4 is isometric): its start squeezed faces "
-            "the descent could not open; mark seams to cut it where it is squeezed"
+            f"distortion {energy[i] / area[i]:.3g}, 4 is isometric): parts of it stay squeezed flat; "
+            "mark seams to cut it where it is squeezed"
         )
         out.append(_warning("far_from_isometric", stuck.size, "island", i, template))
     return out

@@ -24,6 +24,7 @@ from scipy.sparse import csgraph
 from .islands import first_rows
 from .mincut import FaceGraph, face_graph, minimum_cut
 from .options import Options, Problem
+from .progress import geometric, stage
 from .report import cut_apart
 from .resolve import carried_warnings, cut_further, pairs
 from .result import Parametrization
@@ -39,14 +40,15 @@ def without_overlaps(first: Parametrization, problem: Problem, options: Options)
     none does or ``_ROUNDS`` rounds have been tried (what is left is warned about)."""
     result = first
     t0 = time.perf_counter()
-    for _ in range(_ROUNDS):  # a handful of rounds, each one solve of the islands cut
+    for k in range(1, _ROUNDS + 1):  # a handful of rounds, each one solve of the islands cut
         bad = np.flatnonzero(result.islands.crossings > 0)
         if not bad.size:
             break
         new = separating_cuts(result, problem, bad)
         if not len(new):
             break
-        result = cut_further(result, problem, new, bad, options)
+        with stage(f"round {k}" if k > 1 else "", *geometric(k)):
+            result = cut_further(result, problem, new, bad, options)
         result.stats.overlap_cuts += len(new)
     if result is not first:
         whose = first.face_island[first_rows(result.face_island, result.n_islands)]  # each piece's island

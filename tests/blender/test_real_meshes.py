@@ -1,6 +1,8 @@
 """Real models through the operator, as an artist brings them (../shared/meshes; spot is
 vendored in tests/data)."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -63,3 +65,23 @@ def test_an_island_that_would_overlap_itself_is_cut_apart_through_the_operator(s
     object_mode()
     uv = corner_uvs(ob)[tri].astype(np.float64)
     assert metrics.self_overlaps(Vb, Fb, uv).islands == 0 and metrics.per_island(Vb, Fb, uv).flipped.sum() == 0
+
+
+# what the solver met on the way, which an artist cannot act on: the debug log's, not the report's
+_SOLVER_WORDS = re.compile(r"\b(steps?|four-step|fans?|restart\w*|converg\w*|degenerate|subspace|eigen\w*)\b", re.I)
+
+
+@pytest.mark.parametrize("name", [*ex.REAL, "nefertiti"])
+def test_a_default_unwrap_reports_in_the_artists_words(scene, name, capfd):
+    from isoparam_addon.blender import unwrap
+
+    ob = imported(ex.SPOT if name == "spot" else ex.SHARED / f"{name}.obj")
+    capfd.readouterr()
+    assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
+    printed = capfd.readouterr().out
+    said = [line for line in printed.splitlines() if "Isometric Unwrap" in line]
+    assert said and said == [line for line in said if not _SOLVER_WORDS.search(line)]
+    run = unwrap.last_run
+    assert not [w for w in run.notes + run.warnings if _SOLVER_WORDS.search(w)]
+    object_mode()
+    assert ob.data.uv_layers.active is not None
