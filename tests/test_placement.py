@@ -3,7 +3,8 @@
 import numpy as np
 
 from isoparam_addon.solver.overlap import overlapping_faces
-from isoparam_addon.solver.placement import _shelves, place_in_uv_space
+from isoparam_addon.solver.placement import shelves
+from isoparam_addon.solver.uv_space import place_in_uv_space
 
 
 def _boxes_overlap(lo, size):
@@ -18,17 +19,17 @@ def test_shelves_per_group_are_each_groups_shelves_alone():
     size = rng.random((300, 2)) * rng.random((300, 1))
     group = rng.integers(0, 12, 300)
     gap = rng.random(12) * 0.05
-    corner = _shelves(size, gap, group)
+    corner = shelves(size, gap, group)
     for g in range(12):
         mine = group == g
-        assert np.allclose(corner[mine], _shelves(size[mine], gap[g]), atol=1e-12)
+        assert np.allclose(corner[mine], shelves(size[mine], gap[g]), atol=1e-12)
         assert not _boxes_overlap(corner[mine], size[mine])
         assert corner[mine].min() == 0.0
 
 
 def test_shelves_are_rows_about_as_wide_as_they_are_tall():
     size = np.ones((100, 2))
-    corner = _shelves(size, 0.0)
+    corner = shelves(size, 0.0)
     assert not _boxes_overlap(corner, size)
     assert np.ptp(corner[:, 0]) + 1 == np.ptp(corner[:, 1]) + 1 == 10
 

@@ -128,21 +128,21 @@ def test_islands_are_refined_independently():
 def test_a_large_island_beside_small_ones_is_refined_as_it_would_be_alone(monkeypatch):
     # a large island (its own BLAS dot products) beside small ones (one bincount), and line
     # searches that go on for a few islands only (only their faces evaluated again)
-    from isoparam_addon.solver.islands import Islands
+    from isoparam_addon.solver.islands import Islands, Labelled
 
     parts = (ex.peaks(41), ex.sphere_band(), ex.spherical_cap(10))
     V, F = _islands(*parts)
     searched = []
-    members = Islands.members
+    members = Labelled.members
 
     def spy(self, which):
         f = members(self, which)
-        if not self.contiguous:  # the faces of those islands
+        if not isinstance(self, Islands):  # the faces of those islands
             assert np.array_equal(np.sort(f), np.flatnonzero(which[self.label]))
             searched.append(len(f))
         return f
 
-    monkeypatch.setattr(Islands, "members", spy)
+    monkeypatch.setattr(Labelled, "members", spy)
     both = parametrize(V, F, refine=100, pack=False)
     assert any(0 < k < len(F) / 2 for k in searched)  # the partial evaluation ran
     for i, (Vi, Fi) in enumerate(parts):
@@ -634,7 +634,7 @@ def test_an_island_to_settle_stops_closer_to_its_converged_layout():
     m, a3 = len(F), face_areas(V, F)
 
     def log_area_ratio(tol, settle):
-        problem = Problem(V, F, refine_tol=np.full(m, tol), settle_above=np.full(m, settle))
+        problem = Problem(V, F, face_tol=np.full(m, tol), settle_above=np.full(m, settle))
         r = solve(problem, Options(refine=3000, pack=False))
         a2 = np.abs(corner_signed_areas(r.corner_uv))
         return np.log(a2 / a3) - np.log(a2.sum() / a3.sum()), r.stats.refine_iterations

@@ -139,7 +139,7 @@ def test_inconsistent_face_orientation_is_repaired():
     )
     # the majority orientation decides which way the layout faces
     topo = build_topology(V, F2)[2]
-    assert topo.flipped.sum() == len(F2[::3])
+    assert topo.turned.sum() == len(F2[::3])
 
 
 def test_results_are_bit_identical_run_after_run():
@@ -289,7 +289,7 @@ def test_flipped_faces_are_those_of_the_layout_returned():
             r = parametrize(Vi, Fi, refine=refine, pack=pack, split_nonmanifold=True)
             e1, e2 = r.corner_uv[:, 1] - r.corner_uv[:, 0], r.corner_uv[:, 2] - r.corner_uv[:, 0]
             a = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-            reversed_ = build_topology(Vi, Fi, split_nonmanifold=True)[2].flipped
+            reversed_ = build_topology(Vi, Fi, split_nonmanifold=True)[2].turned
             # (a face with no 3D area has no orientation: never counted)
             collapsed = triangles(Vi, Fi).collapsed
             np.testing.assert_array_equal(r.flipped, (np.where(reversed_, -a, a) <= 0) & ~collapsed)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from . import unwrap
+from . import background, unwrap
 
 __all__ = ["UV_OT_isometric_unwrap", "UV_OT_isometric_show_stretch"]
 
@@ -27,14 +27,9 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         name="Pack Shape",
         description="Island shape the packer fits together",
         items=(
-            ("AABB", "Bounding Box", "Fast, as Unwrap packs (Suzanne's 112 islands: 0.02 s)"),
-            (
-                "CONVEX",
-                "Convex Hull",
-                "Tighter than boxes; can take longer than Exact Shape (measured: 8.0 s "
-                "against 1.4-3.0 s on 129-289 islands)",
-            ),
-            ("CONCAVE", "Exact Shape", "Tightest; seconds on many islands (Suzanne's 112 islands: 2.2 s)"),
+            ("AABB", "Bounding Box", "Fast, as Unwrap packs"),
+            ("CONVEX", "Convex Hull", "Tighter than boxes; on many islands it can take longer than Exact Shape"),
+            ("CONCAVE", "Exact Shape", "Tightest; seconds on many islands"),
         ),
         default="AABB",
     )
@@ -119,14 +114,14 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         return ob is not None and ob.type == "MESH" and context.mode == "EDIT_MESH"
 
     def execute(self, context):
-        return unwrap.run(self, context, unwrap.Options(**self.as_keywords()))
+        return unwrap.run(self, context, unwrap.OperatorOptions(**self.as_keywords()))
 
     def invoke(self, context, event):
         """From the UI: solve in a worker thread, Blender responsive, Esc to cancel (scripts
         and background mode call :meth:`execute`, which solves in this thread)."""
         if bpy.app.background or context.window is None:
             return self.execute(context)
-        self._background = unwrap.Background(context, unwrap.Options(**self.as_keywords()))
+        self._background = background.Background(context, unwrap.OperatorOptions(**self.as_keywords()))
         if not self._background.running:
             return self._background.conclude(self, context)
         context.window_manager.modal_handler_add(self)

@@ -29,7 +29,7 @@ from .errors import InvalidMeshError, IsoparamError, SolverError
 from .options import Options, Problem
 from .pipeline import solve
 from .progress import Cancelled, ProgressCallback, stage, tracking
-from .report import IslandReport, SolverWarning, Stats, Timings
+from .report import IslandReport, SolverWarning, Stats, Timings, WarningKind
 from .result import Parametrization
 from .untangle import without_overlaps
 
@@ -39,6 +39,7 @@ __all__ = [
     "Parametrization",
     "IslandReport",
     "SolverWarning",
+    "WarningKind",
     "Stats",
     "Timings",
     "IsoparamError",

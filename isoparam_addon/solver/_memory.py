@@ -2,9 +2,9 @@
 
 glibc hands every allocation above 128 KiB-32 MiB straight back to the kernel when it
 is freed, and the next large array faults fresh pages in. On virtual machines that
-return free guest pages to the host (free-page reporting, DAMON reclaim; this project's
-CI machine is one), touching such pages costs ~3 ms per MB instead of ~0.2: a
-million-vertex solve spent seconds in page faults. Inside :func:`retained`, glibc keeps
+return free guest pages to the host (free-page reporting, DAMON reclaim), touching such
+pages costs an order of magnitude more than reusing them: a million-vertex solve can
+spend seconds in page faults. Inside :func:`retained`, glibc keeps
 freed blocks for reuse; on exit the thresholds go back to glibc's defaults and
 ``malloc_trim(0)`` returns the memory, so the peak is unchanged and nothing stays
 resident afterwards. Elsewhere this is a no-op.

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import safe_divide, signed_areas
+from .geometry import TINY, safe_divide, signed_areas
 from .islands import Islands
 
 __all__ = ["fit_rotation_scale", "orient"]
@@ -45,7 +45,7 @@ def fit_rotation_scale(Y_I, edges, length, edge_island, islands: Islands):
     coef = _least_squares(rows, length**2, edge_island, islands.n)
     A = np.stack([coef[:, [0, 1]], coef[:, [1, 2]]], axis=1)  # Eq. (18)
     s2, U = np.linalg.eigh(A)  # A = U diag(s^2) U^T, so R = U^T and S = diag(s)
-    floor = 1e-12 * np.maximum(s2[:, 1:], 1e-300)
+    floor = 1e-12 * np.maximum(s2[:, 1:], TINY)
     clipped = s2[:, 0] < floor[:, 0]
     s2 = np.maximum(s2, floor)
     T = U * np.sqrt(s2)[:, None, :]  # rows: y = y_I U S

@@ -54,7 +54,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from . import metrics
-from .geometry import corner_angles, corner_signed_areas, face_areas
+from .geometry import TINY, corner_angles, corner_signed_areas, face_areas, safe_divide
 from .islands import Islands, first_rows
 from .mesh import HalfEdges, edge_mask, pair_keys, unit_of
 from .mincut import FaceGraph, face_graph, minimum_cut, source_side
@@ -62,9 +62,18 @@ from .options import Options, Problem
 from .pipeline import solve, topology_of
 from .progress import geometric, stage, tick
 from .refinement import FaceFrames
-from .report import SolverWarning, charted, cut_apart, opened, over_budget
+from .report import (
+    OPENED_KINDS,
+    TOPOLOGY_KINDS,
+    SolverWarning,
+    WarningKind,
+    charted,
+    cut_apart,
+    opened,
+    over_budget,
+)
 from .resolve import cut_further, pairs, sub_problem
-from .result import TOPOLOGY_WARNINGS, Parametrization, topology_warnings
+from .result import Parametrization, topology_warnings
 from .seeds import lscm
 from .topology import Topology
 from .untangle import separating_cuts, without_overlaps
@@ -89,7 +98,7 @@ _TIE = 1e-9  # distances this close (relative) are equal: the lowest-numbered fa
 _SETTLED = 1e-5
 # ... and an island whose energy is over this share of the budget's excess over isometric,
 # which may be cut next, refines until its layout stops moving too (see
-# :meth:`.refinement._Descent.converged`): where it is most squeezed, which decides the cut,
+# :func:`.refinement._converged`): where it is most squeezed, which decides the cut,
 # converges slowest
 _DECIDING = 0.8
 
@@ -134,7 +143,7 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     settle = np.isin(owners.face, owners.charted)  # (only where charts are cut)
     problem = replace(
         problem,
-        refine_tol=np.where(settle, min(options.refine_tol, _SETTLED), options.refine_tol),
+        face_tol=np.where(settle, min(options.refine_tol, _SETTLED), options.refine_tol),
         settle_above=np.where(settle, 4.0 + _DECIDING * (energy_budget(options.max_stretch) - 4.0), np.inf),
     )
     with stage("charting", 0.04, 0.05):
@@ -312,7 +321,7 @@ def _stretch_cuts(result: Parametrization, graph: FaceGraph, owners: _Owners, bu
     none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
     energy, area, owner = _chart_energy(result, owners)
     k = owners.topo.n_islands
-    mean = np.bincount(owner, energy * area, minlength=k) / np.maximum(np.bincount(owner, area, minlength=k), 1e-300)
+    mean = safe_divide(np.bincount(owner, energy * area, minlength=k), np.bincount(owner, area, minlength=k))
     limit = energy_budget(budget)
     over = (area > 0) & (mean[owner] > limit)
     if not over.any():
@@ -428,12 +437,12 @@ def _area_ratio(result: Parametrization | _Layout, graph: FaceGraph) -> np.ndarr
     A3 = np.bincount(isl, a3, minlength=result.n_islands)
     A2 = np.bincount(isl, a2, minlength=result.n_islands)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.log(np.maximum(a2, 1e-300) / np.maximum(a3, 1e-300)) - np.log(A2 / A3)[isl]
+        ratio = np.log(np.maximum(a2, TINY) / np.maximum(a3, TINY)) - np.log(A2 / A3)[isl]
     ratio = np.where(np.isfinite(ratio), ratio, 0.0)
     adjacency = sp.coo_matrix((np.ones(len(graph.f)), (graph.f, graph.g)), shape=(m, m))
     adjacency = (adjacency + adjacency.T).tocsr()
     for _ in range(_SMOOTH):  # area-weighted mean over each face and its neighbours
-        ratio = (adjacency @ (ratio * a3) + ratio * a3) / np.maximum(adjacency @ a3 + a3, 1e-300)
+        ratio = safe_divide(adjacency @ (ratio * a3) + ratio * a3, adjacency @ a3 + a3)
     # on a grid of 1/64: which face is most squeezed, and which path is shortest, must not
     # follow the rounding of the layout (another machine's sums)
     return np.round(_GRID * ratio) / _GRID
@@ -483,7 +492,7 @@ def _slits(
     use = np.isfinite(inside.cost)  # (never along a polygon's diagonal)
     a, b = inside.edges[use, 0], inside.edges[use, 1]
     w = inside.cost[use] * np.exp(0.25 * (ratio[inside.f[use]] + ratio[inside.g[use]]))
-    w = w + 1e-12 * max(float(w.max(initial=0.0)), 1e-300)  # csgraph drops zeros
+    w = w + 1e-12 * max(float(w.max(initial=0.0)), TINY)  # csgraph drops zeros
     G = sp.coo_matrix((w, (a, b)), shape=(n, n)).tocsr()
     target = F[faces, 0]
     reached = ~boundary[target]
@@ -513,7 +522,7 @@ def _charted(result: Parametrization, owners: _Owners, cut: np.ndarray, budget: 
     topo = owners.topo
     pieces = np.bincount(owner, minlength=topo.n_islands)
     total = np.bincount(owner, area, minlength=len(pieces))
-    mean = np.bincount(owner, energy * area, minlength=len(pieces)) / np.maximum(total, 1e-300)
+    mean = safe_divide(np.bincount(owner, energy * area, minlength=len(pieces)), total)
     first = result.face_island[first_rows(owners.face)[cut[0]]]
     not_disk = np.isin(cut, topo.cut_islands)
     return charted(
@@ -521,7 +530,7 @@ def _charted(result: Parametrization, owners: _Owners, cut: np.ndarray, budget: 
         not_disks=int(not_disk.sum()),
         curved=int((owners.curved[cut] & ~not_disk).sum()),
         charts=int(pieces[cut].sum()),
-        energy=float((mean[cut] * total[cut]).sum() / max(total[cut].sum(), 1e-300)),
+        energy=float(safe_divide((mean[cut] * total[cut]).sum(), total[cut].sum())),
         budget=budget,
         first=int(first),
     )
@@ -535,14 +544,14 @@ def _over_budget(result: Parametrization, owners: _Owners, budget: float, refine
     energy, area, owner = _chart_energy(result, owners, islands)
     k = owners.topo.n_islands
     total = np.bincount(owner, area, minlength=k)
-    mean = np.bincount(owner, energy * area, minlength=k) / np.maximum(total, 1e-300)
+    mean = safe_divide(np.bincount(owner, energy * area, minlength=k), total)
     over = np.flatnonzero(mean > energy_budget(budget))
     if not len(over):
         return []
     return over_budget(
         islands=len(over),
         pinned=int(np.isin(over, owners.held).sum()),
-        energy=float((mean[over] * total[over]).sum() / max(total[over].sum(), 1e-300)),
+        energy=float(safe_divide((mean[over] * total[over]).sum(), total[over].sum())),
         budget=budget,
         allowed=energy_budget(budget),
         refined=refined,
@@ -597,7 +606,7 @@ def _warnings(
         return result.face_island[first[np.intersect1d(islands, kept)]]
 
     before = topology_warnings(topo)
-    out = [w for w in before if w.kind not in ("cut_closed", "cut_handles", "cut_holes", "cut_nonorientable")]
+    out = [w for w in before if w.kind not in OPENED_KINDS]
     out += opened(
         now(topo.closed_islands),
         now(topo.handle_islands),
@@ -608,4 +617,4 @@ def _warnings(
     out += _over_budget(result, owners, budget, refined)
     apart = np.setdiff1d(np.flatnonzero(pieces > 1), cut)  # islands cut apart where they overlapped
     out += cut_apart(result.face_island[first[apart]])
-    return out + [w for w in result.warnings if w.kind not in (*TOPOLOGY_WARNINGS, "cut_apart")]
+    return out + [w for w in result.warnings if w.kind not in TOPOLOGY_KINDS | {WarningKind.CUT_APART}]

@@ -10,7 +10,7 @@ from scipy.sparse import csgraph
 from scipy.sparse.linalg import splu
 
 from .errors import SolverError
-from .geometry import edge_lengths, face_areas
+from .geometry import TINY, edge_lengths, face_areas
 from .mesh import HalfEdges, orientation, pair_keys, split
 
 __all__ = ["cut_to_disks"]
@@ -174,7 +174,7 @@ class _EdgeGraph:
         self.ns = ns = len(X)
         self.ev = ev = he.edge_vertices
         self.length = edge_lengths(X, ev)
-        self.tiny = 1e-12 * max(float(self.length.max()), 1e-300)
+        self.tiny = 1e-12 * max(float(self.length.max()), TINY)
         w = self.length + self.tiny
         w[inner] += w.sum()
         self.w = w
@@ -226,8 +226,8 @@ def _tree_cotree(g: _EdgeGraph, he, face_island, todo, inner, sources) -> np.nda
     e = he.edge[h]
     reach = np.where(np.isfinite(dist), dist, 0.0)
     loop = reach[ev[e, 0]] + reach[ev[e, 1]] + g.length[e]
-    weight = (loop.max(initial=0.0) - loop) + g.tiny + 1e-300  # minimum of this = maximum loop
-    weight[inner[e]] = 0.5 * g.tiny + 1e-300  # below every other: diagonals are crossed, not cut
+    weight = (loop.max(initial=0.0) - loop) + g.tiny + TINY  # minimum of this = maximum loop
+    weight[inner[e]] = 0.5 * g.tiny + TINY  # below every other: diagonals are crossed, not cut
     dual = sp.coo_matrix((weight, (h // 3, he.twin[h] // 3)), shape=(m, m)).tocsr()
     tree = csgraph.minimum_spanning_tree(dual).tocoo()
     fkey = np.sort(pair_keys(tree.row, tree.col, m))  # (scipy's rows are int32)

@@ -26,14 +26,14 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .geometry import corner_signed_areas, face_areas
+from .geometry import TINY, corner_signed_areas, face_areas
 from .mesh import HalfEdges, edge_mask
 from .options import Options, Problem
 from .pipeline import solve
 from .progress import geometric, stage
-from .report import lowered
+from .report import TOPOLOGY_KINDS, lowered
 from .resolve import Part, combine, pairs, solve_islands
-from .result import TOPOLOGY_WARNINGS, Parametrization
+from .result import Parametrization
 
 __all__ = ["area_distortion", "next_paths", "with_extra_cuts"]
 
@@ -42,9 +42,7 @@ _GAIN = 0.01  # an extra cut stays if it lowers its island's area distortion by 
 _WORTH = np.log(1.5)  # a vertex whose faces are off by less than 1.5x in area needs no cut
 # targets keep this many edges away from the cut: the tip of a slit is a cone point whose
 # neighbours always look squeezed, and a path of an edge or two there only moves the tip
-# (measured: 100k peaks beside Suzanne with no seams, refine=100: the first path was one
-# edge long and the search stopped after two tries, Suzanne's symmetric Dirichlet 13.7;
-# with the two rings clear, 137 edges over three paths, 4.21, as for Suzanne alone)
+# and ends the search before it reaches the squeezed part
 _CLEAR = 2
 _TIE = 1e-3  # distortions this close (relative) are equal: the refinement stops within 1e-4 of its energy
 
@@ -123,7 +121,7 @@ def next_paths(V, F, face_island, islands, face_bad, seams, inner=None):
     # walk the island's edges only, never along a cut (it is boundary already) or a diagonal
     use = in_isl & ~cut & ~diag & ~pinch[ev[:, 0]] & ~pinch[ev[:, 1]]
     length = np.linalg.norm(V[ev[use, 0]] - V[ev[use, 1]], axis=1)
-    length += 1e-12 * max(float(length.max(initial=0.0)), 1e-300)  # csgraph drops zero weights
+    length += 1e-12 * max(float(length.max(initial=0.0)), TINY)  # csgraph drops zero weights
     graph = sp.coo_matrix((length, (ev[use, 0], ev[use, 1])), shape=(n, n)).tocsr()
     sources = np.flatnonzero(on_cut)
     dist, pred, _ = csgraph.dijkstra(graph, directed=False, indices=sources, min_only=True, return_predecessors=True)
@@ -171,8 +169,8 @@ def with_extra_cuts(problem: Problem, options: Options) -> Parametrization:
         else:
             best = combine(first, kept, replace(problem, seams=seams), options)
         best.cut_edges, best.cut_islands = cuts, first.cut_islands
-        topology = [w for w in first.warnings if w.kind in TOPOLOGY_WARNINGS]
-        rest = [w for w in best.warnings if w.kind not in TOPOLOGY_WARNINGS]
+        topology = [w for w in first.warnings if w.kind in TOPOLOGY_KINDS]
+        rest = [w for w in best.warnings if w.kind not in TOPOLOGY_KINDS]
         best.warnings = [*topology, *lowered(added, before, score), *rest]
     best.timings.extra_cuts = time.perf_counter() - t0
     best.timings.total = first.timings.total + best.timings.extra_cuts
@@ -219,7 +217,7 @@ def _grow(first: Parametrization, problem: Problem, options: Options):
         label = np.empty(trial.n_islands, dtype=np.int64)  # the trial's islands in ``first``'s numbering
         label[trial.face_island] = isl[faces]
         m = np.bincount(label, m, minlength=first.n_islands)
-        gain = 1.0 - m[active] / np.maximum(score[active], 1e-300)
+        gain = 1.0 - m[active] / np.maximum(score[active], TINY)
         gains.append(float(gain.max()))
         better = gain >= _GAIN
         if not better.any():

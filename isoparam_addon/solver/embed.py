@@ -5,7 +5,7 @@ We need, per island, the two non-constant vectors of the near-null space of
 ``{1, u, v}`` (three zero eigenvalues), so "drop the lowest eigenvector" is read as
 "remove the constant from the null space": we work in the complement of ``1``.
 
-Why not the obvious routes (measured on this machine, see docs/history.md):
+Why not the obvious routes (the measurements are in docs/history.md):
 
 * shift-invert ``eigsh`` on M factors M itself: M squares the conditioning of L, has
   2-ring sparsity and fills SuperLU heavily; it stalls beyond ~100k vertices;
@@ -50,6 +50,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ._parallel import solve_columns
+from .geometry import TINY, safe_divide
 from .islands import Islands
 from .ordering import nested_dissection
 from .progress import tick
@@ -119,7 +120,7 @@ def choose_anchors(X: np.ndarray, islands: Islands) -> np.ndarray:
     p0 = argmax(((X - c[lab]) ** 2).sum(axis=1))
     p1 = argmax(((X - X[p0][lab]) ** 2).sum(axis=1), exclude=(p0,))
     u = X[p1] - X[p0]
-    u /= np.maximum(np.linalg.norm(u, axis=1), 1e-300)[:, None]
+    u = safe_divide(u, np.linalg.norm(u, axis=1)[:, None])
     r = X - X[p0][lab]
     r -= (r * u[lab]).sum(axis=1)[:, None] * u[lab]
     p2 = argmax((r**2).sum(axis=1), exclude=(p0, p1))
@@ -313,7 +314,7 @@ def _orthonormal_block(B: np.ndarray, kept: np.ndarray | None, islands: Islands,
     alive = (d > _REMAINDER**2 * d0) & (d > 0)
     s = np.where(alive, 1.0 / np.sqrt(np.where(alive, d, 1.0)), 0.0)
     lam, U = np.linalg.eigh(s[:, :, None] * g * s[:, None, :])
-    ok = lam > drop * np.maximum(lam[:, -1:], 1e-300)
+    ok = lam > drop * np.maximum(lam[:, -1:], TINY)
     T = s[:, :, None] * U * np.where(ok, 1.0 / np.sqrt(np.where(ok, lam, 1.0)), 0.0)[:, None, :]
     return islands.apply(B, T)
 
@@ -340,7 +341,7 @@ def _ritz(L, Q: np.ndarray, islands: Islands, p: int):
         K = islands.gram(LQ, LQ, large=False)
         K = 0.5 * (K + K.transpose(0, 2, 1))
         floor = 1e-13 * np.abs(K).max(axis=(1, 2))  # large islands: set below
-        dead = 2.0 * np.abs(K).max(axis=(1, 2))[:, None] + 1e-300
+        dead = 2.0 * np.abs(K).max(axis=(1, 2))[:, None] + TINY
         K[:, np.arange(k), np.arange(k)] += np.where(alive, 0.0, dead)
         w, c = np.linalg.eigh(K)
         q = min(p, k)

@@ -16,11 +16,14 @@ import numpy as np
 
 __all__ = [
     "NEXT",
+    "TINY",
     "PREV",
     "next_corner",
     "prev_corner",
     "rotate_faces",
     "safe_divide",
+    "triangle_angles",
+    "conformal_parts",
     "signed_double_areas",
     "signed_areas",
     "corner_signed_areas",
@@ -31,6 +34,9 @@ __all__ = [
     "corner_angles",
 ]
 
+# the floor of a scale that must stay positive (a relative threshold of a zero scale would
+# be zero): the smallest normal double, so it changes no scale that is not zero
+TINY = 1e-300
 NEXT = np.array([1, 2, 0])  # the next corner of a face, by position
 PREV = np.array([2, 0, 1])
 
@@ -146,37 +152,70 @@ def edge_lengths(X: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return np.sqrt(total)
 
 
+def triangle_angles(p: np.ndarray) -> np.ndarray:
+    """Corner angles (m, 3) in [0, pi] of triangles given by their corners ``p`` (m, 3, d),
+    d = 2 or 3 (the kernel of :func:`corner_angles`, for triangles apart)."""
+    angle, _ = _angles_and_lengths([p[:, k] for k in range(3)])
+    return angle
+
+
+def conformal_parts(a, b, c, d) -> tuple[np.ndarray, np.ndarray]:
+    """The conformal and anti-conformal parts ``(q, r)`` of 2x2 Jacobians
+    ``J = [[a, b], [c, d]]`` (each (m,)): the singular values are ``q + r`` and ``|q - r|``
+    (closed form, without the cancellation of an eigenvalue formula), and ``q > r`` where
+    J keeps orientation."""
+    return 0.5 * np.hypot(a + d, c - b), 0.5 * np.hypot(a - d, c + b)
+
+
 def corner_angles(X: np.ndarray, faces: np.ndarray):
     """Interior angle of every corner and the lengths of its two edges.
 
     Returns ``(angle, to_next, to_prev)``, each (3m,) float64: the angle at corner
     ``c = 3f + k`` in [0, pi], and the lengths from its vertex to the next and previous
-    vertex of face f. ``atan2(|e1 x e2|, e1 . e2)`` is accurate for tiny and obtuse angles
-    and gives 0, not NaN, for zero-length edges. Works in chunks of faces that stay in
-    cache.
+    vertex of face f. Works in chunks of faces that stay in cache.
     """
     m = len(faces)
     angle = np.empty((m, 3))
     length = np.empty((m, 3))
-    x, y, z = (np.ascontiguousarray(X[:, c]) for c in range(3))
+    X = np.asarray(X)
+    columns = [np.ascontiguousarray(X[:, c]) for c in range(X.shape[1])]
     corner = [np.ascontiguousarray(faces[:, k]) for k in range(3)]
     step = 1 << 16
     for lo in range(0, m, step):  # chunks of 65536 faces
-        f = [c[lo : lo + step] for c in corner]
-        ex, ey, ez = [], [], []
-        for k in range(3):  # edge k runs from corner k to corner k+1
-            a, b = f[k], f[(k + 1) % 3]
-            ex.append(x[b] - x[a])
-            ey.append(y[b] - y[a])
-            ez.append(z[b] - z[a])
-        nx = ey[0] * ez[1] - ez[0] * ey[1]  # twice the area vector, shared by the corners
-        ny = ez[0] * ex[1] - ex[0] * ez[1]
-        nz = ex[0] * ey[1] - ey[0] * ex[1]
-        double_area = np.sqrt(nx * nx + ny * ny + nz * nz)
-        sl = slice(lo, lo + len(f[0]))
-        for k in range(3):
-            j = (k + 2) % 3  # the edge arriving at corner k
-            dot = -(ex[j] * ex[k] + ey[j] * ey[k] + ez[j] * ez[k])
-            angle[sl, k] = np.arctan2(double_area, dot)
-            length[sl, k] = np.sqrt(ex[k] * ex[k] + ey[k] * ey[k] + ez[k] * ez[k])
+        sl = slice(lo, min(lo + step, m))
+        points = [np.stack([x[c[sl]] for x in columns], axis=1) for c in corner]
+        angle[sl], length[sl] = _angles_and_lengths(points)
     return angle.ravel(), length.ravel(), length[:, PREV].ravel()
+
+
+def _angles_and_lengths(points: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The one corner-angle kernel: for triangles with corners ``points`` (three (m, d),
+    d = 2 or 3), the angle at each corner (m, 3) in [0, pi] and the length of the edge
+    from each corner to the next (m, 3). ``atan2(2 area, e1 . e2)`` is accurate for tiny
+    and obtuse angles and gives 0, not NaN, for zero-length edges."""
+    d = points[0].shape[1]
+    edges = [[points[(k + 1) % 3][:, c] - points[k][:, c] for c in range(d)] for k in range(3)]
+    e0, e1 = edges[0], edges[1]  # edge k runs from corner k to corner k+1
+    if d == 2:
+        double_area = np.abs(e0[0] * e1[1] - e0[1] * e1[0])
+    else:  # twice the area vector, shared by the corners
+        nx = e0[1] * e1[2] - e0[2] * e1[1]
+        ny = e0[2] * e1[0] - e0[0] * e1[2]
+        nz = e0[0] * e1[1] - e0[1] * e1[0]
+        double_area = np.sqrt(nx * nx + ny * ny + nz * nz)
+    angle = np.empty((len(points[0]), 3))
+    length = np.empty((len(points[0]), 3))
+    for k in range(3):
+        j = (k + 2) % 3  # the edge arriving at corner k
+        dot = -sum_products(edges[j], edges[k])
+        angle[:, k] = np.arctan2(double_area, dot)
+        length[:, k] = np.sqrt(sum_products(edges[k], edges[k]))
+    return angle, length
+
+
+def sum_products(a: list[np.ndarray], b: list[np.ndarray]) -> np.ndarray:
+    """``a . b`` for vectors given as lists of coordinate arrays, summed in order."""
+    out = a[0] * b[0]
+    for x, y in zip(a[1:], b[1:]):
+        out = out + x * y
+    return out

@@ -14,8 +14,10 @@ Two layouts of the rows:
   small islands are grouped by size (powers of two); each group is gathered into a
   stack of zero-padded ``(size, p)`` blocks, with at most twice the rows gathered. The
   loop over large islands is bounded by ``n / _LARGE``.
-* **labelled** (:meth:`Islands.labelled`: faces, edges, corners in any order): sums are
-  ``bincount``, minima a sort-and-``reduceat``, and the dense algebra is not offered.
+* **labelled** (:class:`Labelled`, from :meth:`Islands.labelled`: faces, edges, corners
+  in any order): sums are ``bincount``, minima a sort-and-``reduceat``, and the dense
+  algebra is not offered. :class:`Islands` is a :class:`Labelled` whose rows are in
+  order, with faster reductions and the dense algebra.
 
 ``np.dot`` rather than ``@`` on large blocks: in numpy 1.26 (Blender's) ``(100000, 9) @
 (9, 2)`` is an order of magnitude slower than ``np.dot`` (see docs/benchmarks.md).
@@ -26,18 +28,18 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Islands", "first_rows"]
+__all__ = ["Islands", "Labelled", "first_rows"]
 
 _LARGE = 1024  # islands with more rows than this get their own BLAS call (and SVD)
 
 
-class Islands:
-    """Rows grouped by island.
+class Labelled:
+    """Rows labelled by island, in any order (faces, edges, corners): reductions only.
 
     Parameters
     ----------
     label : (n,) int64
-        Island of each row, non-decreasing (use :meth:`labelled` for rows in any order).
+        Island of each row.
     n_islands : int
 
     Attributes
@@ -47,74 +49,20 @@ class Islands:
         Number of islands.
     size : (n_islands,) int64
         Rows per island.
-    contiguous : bool
-        Rows are numbered island by island (``start``, the dense algebra and ``subset``
-        need it).
-    start : (n_islands + 1,) int64
-        Contiguous only: island i holds rows ``start[i]:start[i + 1]``.
     """
 
-    def __init__(self, label: np.ndarray, n_islands: int, *, contiguous: bool = True):
+    def __init__(self, label: np.ndarray, n_islands: int):
         self.label = label
         self.n = n_islands
         self.size = np.bincount(label, minlength=n_islands)
-        self.contiguous = contiguous
         self._order: np.ndarray | None = None
-        if not contiguous:
-            return
-        if np.any(np.diff(label) < 0):
-            raise ValueError("rows must be sorted by island")
-        self.start = np.zeros(n_islands + 1, dtype=np.int64)
-        self.start[1:] = np.cumsum(self.size)
-        self.large = np.flatnonzero(self.size > _LARGE)
-        small_rows = ~np.isin(label, self.large) if self.large.size else np.ones(len(label), dtype=bool)
-        self.small_rows = np.flatnonzero(small_rows)
-        self.small_indicator = sp.csr_matrix(
-            (np.ones(len(self.small_rows)), (label[self.small_rows], np.arange(len(self.small_rows)))),
-            shape=(n_islands, len(self.small_rows)),
-        )
-        self._groups = self._group_small()
-
-    @classmethod
-    def labelled(cls, label: np.ndarray, n_islands: int) -> Islands:
-        """Islands over rows in any order (faces, edges, corners): reductions only."""
-        return cls(label, n_islands, contiguous=False)
-
-    def _group_small(self) -> list:
-        """The small islands with rows, by size class (sizes in (2^(c-1), 2^c]): per
-        class, the islands (k,), their rows padded to the class's largest (k, s) (the
-        padding repeats an island's first row), the padding mask (k, s, 1) float (1 on
-        real rows) and which entries are real (k, s) bool."""
-        small = np.flatnonzero((self.size > 0) & (self.size <= _LARGE))
-        if not small.size:
-            return []
-        cls = np.ceil(np.log2(self.size[small])).astype(np.int64)
-        groups = []
-        for c in np.unique(cls):  # at most log2(_LARGE) + 1 classes
-            ids = small[cls == c]
-            size = self.size[ids]
-            t = np.arange(int(size.max()))
-            real = t < size[:, None]
-            rows = self.start[ids][:, None] + np.where(real, t, 0)
-            groups.append((ids, rows, real[:, :, None].astype(np.float64), real))
-        return groups
-
-    # ------------------------------------------------------------------ both layouts
 
     def sum(self, x: np.ndarray) -> np.ndarray:
         """Per-island sum of rows: (n, ...) -> (n_islands, ...)."""
-        if not self.contiguous:
-            if x.ndim == 1:
-                return np.array([x.sum()], dtype=np.float64) if self.n == 1 else self._bincount(x)
-            flat = x.reshape(len(x), -1)
-            out = np.stack([self._bincount(flat[:, j]) for j in range(flat.shape[1])], axis=1)
-            return out.reshape((self.n,) + x.shape[1:])
+        if x.ndim == 1:
+            return np.array([x.sum()], dtype=np.float64) if self.n == 1 else self._bincount(x)
         flat = x.reshape(len(x), -1)
-        out = np.zeros((self.n, flat.shape[1]))
-        out += self.small_indicator @ flat[self.small_rows] if self.small_rows.size else 0.0
-        for i in self.large:  # a BLAS product: ``sum(axis=0)`` of (100000, 2) rows takes 25x longer
-            r = self.rows(i)
-            out[i] = np.dot(np.ones(r.stop - r.start), flat[r])
+        out = np.stack([self._bincount(flat[:, j]) for j in range(flat.shape[1])], axis=1)
         return out.reshape((self.n,) + x.shape[1:])
 
     def _bincount(self, x: np.ndarray) -> np.ndarray:
@@ -128,8 +76,6 @@ class Islands:
         """Per-island values repeated for their rows (a broadcastable view for one island)."""
         if self.n == 1:
             return per_island[:1]
-        if self.contiguous:
-            return np.repeat(per_island, self.size, axis=0)
         return per_island[self.label]
 
     def min(self, x: np.ndarray) -> np.ndarray:
@@ -141,12 +87,12 @@ class Islands:
             out[0] = x.min()
             return out
         has = self.size > 0
-        if self.contiguous:
-            out[has] = np.minimum.reduceat(x, self.start[:-1][has])
-        else:
-            order, start = self._sorted()
-            out[has] = np.minimum.reduceat(x[order], start[has])
+        out[has] = self._reduce_min(x, has)
         return out
+
+    def _reduce_min(self, x: np.ndarray, has: np.ndarray) -> np.ndarray:
+        order, start = self._sorted()
+        return np.minimum.reduceat(x[order], start[has])
 
     def max(self, x: np.ndarray) -> np.ndarray:
         """Per-island maximum of (n,) values, ``-inf`` for islands without rows."""
@@ -160,8 +106,6 @@ class Islands:
 
     def members(self, which: np.ndarray) -> np.ndarray:
         """The rows of the islands flagged in ``which`` (n_islands,) bool, island by island."""
-        if self.contiguous:
-            return np.flatnonzero(which[self.label])
         order, start = self._sorted()
         end = np.append(start[1:], len(self.label))
         counts = np.where(which, end - start, 0)
@@ -170,7 +114,72 @@ class Islands:
         first = np.repeat(start - np.cumsum(counts) + counts, counts)  # each island's run of the order
         return order[first + np.arange(counts.sum())]
 
-    # ------------------------------------------------------------------ contiguous rows
+    def dot(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Per-island inner product of rows, (n_islands,)."""
+        if self.n == 1:  # one island: a BLAS dot; ``(a * b).sum(axis=1)`` is 4x slower
+            return np.array([np.dot(a.ravel(), b.ravel())])
+        ab = a * b
+        return self._bincount(ab if ab.ndim == 1 else ab.reshape(len(ab), -1).sum(axis=1))
+
+
+class Islands(Labelled):
+    """Rows grouped by island, numbered island by island: the reductions of
+    :class:`Labelled`, faster, and per-island dense algebra.
+
+    Parameters
+    ----------
+    label : (n,) int64
+        Island of each row, non-decreasing (use :meth:`labelled` for rows in any order).
+    n_islands : int
+
+    Attributes
+    ----------
+    start : (n_islands + 1,) int64
+        Island i holds rows ``start[i]:start[i + 1]``.
+    """
+
+    def __init__(self, label: np.ndarray, n_islands: int):
+        super().__init__(label, n_islands)
+        if np.any(np.diff(label) < 0):
+            raise ValueError("rows must be sorted by island")
+        self.start = np.zeros(n_islands + 1, dtype=np.int64)
+        self.start[1:] = np.cumsum(self.size)
+        self.large = np.flatnonzero(self.size > _LARGE)
+        small_rows = ~np.isin(label, self.large) if self.large.size else np.ones(len(label), dtype=bool)
+        self.small_rows = np.flatnonzero(small_rows)
+        self.small_indicator = sp.csr_matrix(
+            (np.ones(len(self.small_rows)), (label[self.small_rows], np.arange(len(self.small_rows)))),
+            shape=(n_islands, len(self.small_rows)),
+        )
+        self._groups = _group_small(self.size, self.start)
+
+    @staticmethod
+    def labelled(label: np.ndarray, n_islands: int) -> Labelled:
+        """Islands over rows in any order (faces, edges, corners): reductions only."""
+        return Labelled(label, n_islands)
+
+    def sum(self, x: np.ndarray) -> np.ndarray:
+        """Per-island sum of rows: (n, ...) -> (n_islands, ...)."""
+        flat = x.reshape(len(x), -1)
+        out = np.zeros((self.n, flat.shape[1]))
+        out += self.small_indicator @ flat[self.small_rows] if self.small_rows.size else 0.0
+        for i in self.large:  # a BLAS product: ``sum(axis=0)`` of (100000, 2) rows takes 25x longer
+            r = self.rows(i)
+            out[i] = np.dot(np.ones(r.stop - r.start), flat[r])
+        return out.reshape((self.n,) + x.shape[1:])
+
+    def expand(self, per_island: np.ndarray) -> np.ndarray:
+        """Per-island values repeated for their rows (a broadcastable view for one island)."""
+        if self.n == 1:
+            return per_island[:1]
+        return np.repeat(per_island, self.size, axis=0)
+
+    def _reduce_min(self, x: np.ndarray, has: np.ndarray) -> np.ndarray:
+        return np.minimum.reduceat(x, self.start[:-1][has])
+
+    def members(self, which: np.ndarray) -> np.ndarray:
+        """The rows of the islands flagged in ``which`` (n_islands,) bool, island by island."""
+        return np.flatnonzero(which[self.label])
 
     def rows(self, i: int) -> slice:
         return slice(int(self.start[i]), int(self.start[i + 1]))
@@ -200,15 +209,12 @@ class Islands:
         return np.repeat(per_island, 2 * self.size).reshape(-1, 2)
 
     def dot(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Per-island inner product of rows, (n_islands,) ((n, 2) rows when contiguous).
+        """Per-island inner product of (n, 2) rows, (n_islands,).
 
         One BLAS dot per large island and one ``bincount`` over the rows of the small
         ones (a ``bincount`` over every row is several times slower beside a large island)."""
         if self.n == 1:  # one island: a BLAS dot; ``(a * b).sum(axis=1)`` is 4x slower
             return np.array([np.dot(a.ravel(), b.ravel())])
-        if not self.contiguous:
-            ab = a * b
-            return self._bincount(ab if ab.ndim == 1 else ab.reshape(len(ab), -1).sum(axis=1))
         out = np.zeros(self.n)
         if self.small_rows.size:
             r = self.small_rows
@@ -247,6 +253,26 @@ class Islands:
             r = self.rows(i)
             out[r] = np.dot(V[r], T[i])
         return out
+
+
+def _group_small(size: np.ndarray, start: np.ndarray) -> list:
+    """The small islands with rows, by size class (sizes in (2^(c-1), 2^c]): per class, the
+    islands (k,), their rows padded to the class's largest (k, s) (the padding repeats an
+    island's first row), the padding mask (k, s, 1) float (1 on real rows) and which
+    entries are real (k, s) bool."""
+    small = np.flatnonzero((size > 0) & (size <= _LARGE))
+    if not small.size:
+        return []
+    cls = np.ceil(np.log2(size[small])).astype(np.int64)
+    groups = []
+    for c in np.unique(cls):  # at most log2(_LARGE) + 1 classes
+        ids = small[cls == c]
+        sz = size[ids]
+        t = np.arange(int(sz.max()))
+        real = t < sz[:, None]
+        rows = start[ids][:, None] + np.where(real, t, 0)
+        groups.append((ids, rows, real[:, :, None].astype(np.float64), real))
+    return groups
 
 
 def first_rows(label: np.ndarray, n: int | None = None) -> np.ndarray:

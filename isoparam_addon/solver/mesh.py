@@ -26,7 +26,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from .errors import InvalidMeshError, offenders
-from .geometry import next_corner, rotate_faces
+from .geometry import TINY, next_corner, rotate_faces
 
 __all__ = [
     "Fans",
@@ -388,7 +388,7 @@ def orientation(F, he, face_island, n_islands, area, tree_only=None):
     flip = lab[np.arange(m)] != lab[root[face_island]]
     kept = np.bincount(face_island, weights=np.where(flip, 0.0, area), minlength=n_islands)
     total = np.bincount(face_island, weights=area, minlength=n_islands)
-    swap = kept < 0.5 * total - 1e-300
+    swap = kept < 0.5 * total - TINY
     flip ^= swap[face_island]
     return flip, orientable
 

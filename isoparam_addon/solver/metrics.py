@@ -50,8 +50,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .geometry import corner_signed_areas, next_corner, triangles
-from .islands import Islands
+from .geometry import TINY, conformal_parts, corner_signed_areas, next_corner, triangle_angles, triangles
+from .islands import Islands, Labelled
 from .mesh import HalfEdges, orientation, unit_of
 
 __all__ = [
@@ -141,7 +141,7 @@ def _frames(V, F, cuv):
     """3D face areas, which faces have any (m,) bool, and the 2x2 Jacobians ``(a, b, c, d)``
     (each (m,)) of the map from each face to UV: ``J = [[a, b], [c, d]]``."""
     tri = triangles(np.asarray(V, dtype=np.float64), F)
-    ok = (tri.cross > 1e-14 * np.maximum(tri.l1, 1e-300) ** 2) & (tri.l1 > 0)
+    ok = (tri.cross > 1e-14 * np.maximum(tri.l1, TINY) ** 2) & (tri.l1 > 0)
     x1 = np.where(ok, tri.l1, 1.0)
     x2 = np.where(ok, tri.dot / x1, 0.0)
     y2 = np.where(ok, tri.cross / x1, 1.0)
@@ -163,10 +163,7 @@ def singular_values(V, F, uv):
     """
     F = np.asarray(F, dtype=np.int64)
     area, ok, (a, b, c, d) = _frames(V, F, corner_uvs(F, uv))
-    # closed form without cancellation: sigma = |q +- r| with q, r the conformal and
-    # anti-conformal parts of J
-    q = 0.5 * np.hypot(a + d, c - b)
-    r = 0.5 * np.hypot(a - d, c + b)
+    q, r = conformal_parts(a, b, c, d)
     sig = np.stack([q + r, np.abs(q - r)], axis=1)
     sig[~ok] = 1.0
     return sig, area, ok
@@ -193,16 +190,12 @@ def stretch(V, F, uv) -> tuple[float, float]:
 
 
 def symmetric_dirichlet(V, F, uv) -> float:
-    """Area-weighted symmetric Dirichlet energy at its optimal global scale (>= 4)."""
+    """Area-weighted symmetric Dirichlet energy at its optimal global scale (>= 4): the
+    whole layout as one island (:func:`_island_energy`)."""
+    F = np.asarray(F, dtype=np.int64)
     sig, area, ok = singular_values(V, F, uv)
-    w = area * ok
-    with np.errstate(divide="ignore"):
-        pos = ((sig**2).sum(axis=1) * w).sum()
-        neg = ((1.0 / sig**2).sum(axis=1) * w).sum()
-    if not np.isfinite(neg):
-        return float("inf")
-    s2 = np.sqrt(neg / pos)
-    return float((s2 * pos + neg / s2) / w.sum())
+    sd, _ = _island_energy(sig, area * ok, Labelled(np.zeros(len(F), dtype=np.int64), 1))
+    return float(sd[0]) if np.isfinite(sd[0]) else float("inf")
 
 
 def flipped(V, F, uv, face_island=None) -> int:
@@ -301,8 +294,8 @@ def distortion(V, F, uv, face_island=None) -> Distortion:
         logdet = np.abs(np.log(sig[:, 0] * sig[:, 1] * k * k))
         logratio = np.abs(np.log(sig[:, 0] / sig[:, 1]))
     p = np.asarray(V, dtype=np.float64)[F]
-    ang3 = _angles(p)
-    ang2 = _angles(cuv)
+    ang3 = triangle_angles(p)
+    ang2 = triangle_angles(cuv)
     l2s, linf = stretch(V, F, cuv)
     r = l2[l3 > 0] / l3[l3 > 0]
     return Distortion(
@@ -318,17 +311,6 @@ def distortion(V, F, uv, face_island=None) -> Distortion:
         flipped=flipped(V, F, cuv, face_island),
         max_edge_ratio=float(r.max() / r.min()) if r.size and r.min() > 0 else float("inf"),
     )
-
-
-def _angles(p: np.ndarray) -> np.ndarray:
-    """Corner angles (m, 3) of triangles p (m, 3, d)."""
-    e1 = p[:, [1, 2, 0]] - p
-    e2 = p[:, [2, 0, 1]] - p
-    if p.shape[2] == 2:
-        cross = np.abs(e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0])
-    else:
-        cross = np.linalg.norm(np.cross(e1, e2), axis=2)
-    return np.arctan2(cross, (e1 * e2).sum(axis=2))
 
 
 @dataclass(frozen=True)
@@ -372,7 +354,7 @@ def island_energy(V, F, uv, face_island: np.ndarray, k: int) -> tuple[np.ndarray
     return _island_energy(sig, area * ok, Islands.labelled(np.asarray(face_island, dtype=np.int64), k))
 
 
-def _island_energy(sig: np.ndarray, w: np.ndarray, groups: Islands) -> tuple[np.ndarray, np.ndarray]:
+def _island_energy(sig: np.ndarray, w: np.ndarray, groups: Labelled) -> tuple[np.ndarray, np.ndarray]:
     """Per island: symmetric Dirichlet at its best scale from singular values ``sig``
     (m, 2) and face weights (3D areas) ``w`` (m,), and the islands' weights."""
     A3 = groups.sum(w)

@@ -21,6 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
+from .geometry import TINY, safe_divide
 from .islands import first_rows
 from .mesh import HalfEdges, pair_keys
 
@@ -82,7 +83,7 @@ class FaceGraph:
         """The graph weighted by the distance between face centroids (symmetric)."""
         m = self.n_faces
         d = np.linalg.norm(self.centroids[self.f] - self.centroids[self.g], axis=1)
-        d += 1e-12 * max(float(d.max(initial=0.0)), 1e-300)  # csgraph drops zero weights
+        d += 1e-12 * max(float(d.max(initial=0.0)), TINY)  # csgraph drops zero weights
         graph = sp.coo_matrix((d, (self.f, self.g)), shape=(m, m))
         return (graph + graph.T).tocsr()
 
@@ -108,7 +109,7 @@ def face_graph(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, cut, inner
     f, g, e, edges = f[keep], g[keep], e[keep], edges[keep]
     length = np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1)
     normal = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    normal = safe_divide(normal, np.linalg.norm(normal, axis=1, keepdims=True))
     # (a mesh not consistently oriented reads some flat edges as creases: only a cost)
     angle = np.arccos(np.clip((normal[f] * normal[g]).sum(axis=1), -1.0, 1.0))
     cost = length * (1.0 - (1.0 - _CREASE_COST) * np.minimum(angle / _CREASE, 1.0))

@@ -96,7 +96,7 @@ class Problem:
     start : (m, 3, 2) float or None
         A fold-free layout to refine instead of the four steps' (a search that cut a solved
         layout further goes on from it), mesh units, per face corner.
-    refine_tol : (m,) float or None
+    face_tol : (m,) float or None
         Per face, a stopping tolerance of the refinement below ``Options.refine_tol``: an
         island stops at the smallest of its faces' (charting settles the islands it cuts,
         and only those).
@@ -112,7 +112,7 @@ class Problem:
     inner_edges: npt.ArrayLike | None = None
     pins: tuple[npt.ArrayLike, npt.ArrayLike] | None = None
     start: np.ndarray | None = None
-    refine_tol: np.ndarray | None = None
+    face_tol: np.ndarray | None = None
     settle_above: np.ndarray | None = None
 
     def pinned_vertices(self) -> np.ndarray | None:

@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .geometry import corner_signed_areas
+from .geometry import TINY, corner_signed_areas
 from .mesh import pair_keys
 
 __all__ = [
@@ -87,7 +87,7 @@ def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: flo
 def _cell(lo: np.ndarray, hi: np.ndarray) -> float:
     """A grid cell about twice the typical item: few cells per item, few items per cell."""
     extent = np.median(np.max(hi - lo, axis=1)) if len(lo) else 1.0
-    return float(max(2.0 * extent, 1e-300))
+    return float(max(2.0 * extent, TINY))
 
 
 def _orient(p, q, r):

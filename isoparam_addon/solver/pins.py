@@ -97,8 +97,8 @@ class _Deformation:
         return Y + d
 
 
-def refine_to_pins(solve, Y, faces, constrained, target, islands: Islands, stages: int = 8):
-    """Refine with the constrained pins moved onto their targets, in stages if needed.
+def refine_to_pins(solve, Y, faces, shaping, target, islands: Islands, stages: int = 8):
+    """Refine with the shaping pins moved onto their targets, in stages if needed.
 
     Moving every pin at once can fold the layout when the targets are far from where
     the isometric layout puts them, and a barrier energy cannot start from a fold: the
@@ -115,7 +115,7 @@ def refine_to_pins(solve, Y, faces, constrained, target, islands: Islands, stage
         ``solve(uv, pinned) -> Refinement``: the refinement.
     Y : (n, 2) float64
     faces : (m, 3) int64
-    constrained : (n,) bool
+    shaping : (n,) bool
     target : (n, 2) float64
     islands : Islands
     stages : int
@@ -127,15 +127,15 @@ def refine_to_pins(solve, Y, faces, constrained, target, islands: Islands, stage
     (Refinement, reached (n_islands,) bool)
         The last refinement, with the iterations of all of them and, per island, the
         seed it was restarted from last; and per island whether its pins were all
-        reached (True for islands without constrained pins).
+        reached (True for islands without shaping pins).
     """
     lab = islands.label
     nI = islands.n
-    reached = np.bincount(lab, constrained, minlength=nI) == 0
+    reached = np.bincount(lab, shaping, minlength=nI) == 0
     if reached.all():  # nothing to move: a folded start is the refinement's to repair
-        return solve(Y, constrained), reached
+        return solve(Y, shaping), reached
     face_island = lab[faces[:, 0]]
-    deform = _Deformation(faces, constrained, len(Y))
+    deform = _Deformation(faces, shaping, len(Y))
     current, info, iterations = Y, None, 0
     folded = _folded(current, faces, face_island, nI) & ~reached
     fraction = np.where(folded | reached, 0.0, 1.0)
@@ -147,8 +147,8 @@ def refine_to_pins(solve, Y, faces, constrained, target, islands: Islands, stage
             fraction[bad] *= 0.5
             continue
         trial = trial.copy()
-        trial[constrained] = goal[constrained]
-        last, info = info, solve(trial, constrained & ~folded[lab])
+        trial[shaping] = goal[shaping]
+        last, info = info, solve(trial, shaping & ~folded[lab])
         iterations += info.iterations
         if last is not None:  # where an island was restarted again, the later seed counts
             again = info.restarted_conformal | info.restarted_tutte
@@ -157,7 +157,7 @@ def refine_to_pins(solve, Y, faces, constrained, target, islands: Islands, stage
         current = info.uv
         reached |= fraction == 1.0
         if folded.any():  # refined without pins (and restarted): onto their pins' frame
-            fit = similarity_fit(current, target, islands, constrained & folded[lab])
+            fit = similarity_fit(current, target, islands, shaping & folded[lab])
             current = np.where(folded[lab][:, None], apply_similarity(current, islands, fit), current)
             info.uv = current
             info.rescale(folded, fit.scale)  # the energy of the layout returned, if it is the last

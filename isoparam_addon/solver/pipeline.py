@@ -74,8 +74,8 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
         clock.lap("refine")  # waiting for the proxy, if it outlasted Step 3
     order = np.concatenate([plan.free_order, plan.anchors.ravel()])
     tol = np.full(topo.n_islands, options.refine_tol)  # per island, the smallest of its faces'
-    if problem.refine_tol is not None:
-        np.minimum.at(tol, topo.face_island, problem.refine_tol)
+    if problem.face_tol is not None:
+        np.minimum.at(tol, topo.face_island, problem.face_tol)
     settle = None  # per island, the smallest of its faces'
     if problem.settle_above is not None:
         settle = np.full(topo.n_islands, np.inf)
@@ -111,7 +111,7 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
             Y = info.uv
     clock.lap("refine")
     with stage("placement", 0.97, 1.0):
-        placed = place(Y, islands, pack=options.pack, margin=options.margin, fixed=held)
+        placed = place(Y, islands, pack=options.pack, margin=options.margin, held=held)
     clock.lap("placement")
     report = _island_report(islands, emb, clipped, flagged, pins, held, reached, info, unit)
     return _result(V, F, topo, placed, unit, emb, report, info, clock)

@@ -56,8 +56,8 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ._parallel import solve_columns
-from .geometry import signed_double_areas, triangles
-from .islands import Islands
+from .geometry import TINY, conformal_parts, safe_divide, signed_double_areas, triangles
+from .islands import Islands, Labelled
 from .mesh import unique_edges
 from .ordering import nested_dissection
 from .progress import tick
@@ -164,7 +164,7 @@ def _max_step(J, dJ, limit: float = np.inf):
             rows = np.flatnonzero(((qa * limit + qb) * limit + qc <= 0) | dips)
         t[rows] = _max_step((a[rows], b[rows], c[rows], d[rows]), tuple(x[rows] for x in dJ))
         return t
-    lin = np.abs(qa) < 1e-30 * np.maximum(np.abs(qb), 1e-300)
+    lin = np.abs(qa) < 1e-30 * np.maximum(np.abs(qb), TINY)
     with np.errstate(divide="ignore", invalid="ignore"):
         tl = -qc / qb
         t = np.where(lin & (tl > 0), tl, t)
@@ -189,8 +189,7 @@ def slim_weights(J) -> np.ndarray:
     directions: the mean of the two, divided by its isometric value.
     """
     a, b, c, d = J
-    q = 0.5 * np.hypot(a + d, c - b)  # the conformal and anti-conformal parts of J
-    r = 0.5 * np.hypot(a - d, c + b)
+    q, r = conformal_parts(a, b, c, d)
     s1 = np.maximum(q + r, 1e-50)  # a collapsed face weighs as much as a float allows
     s2 = np.maximum(q - r, 1e-50)  # (fold-free: q > r)
     w = sum((s + 1.0) * (s * s + 1.0) / (s * s * s) for s in (s1, s2)) / 8.0
@@ -255,7 +254,7 @@ class Refinement:
         d, i = self.island_parts[0] * s2, self.island_parts[1] / s2
         self.island_parts = (d, i)
         self.island_energy = np.where(which, d + i, self.island_energy)
-        self.energy.append(float(self.island_energy.sum()) / max(float(self.island_area.sum()), 1e-300))
+        self.energy.append(float(safe_divide(self.island_energy.sum(), self.island_area.sum())))
 
 
 @dataclass
@@ -344,7 +343,7 @@ def _factor(frames: FaceFrames, islands: Islands, pinned, perm, weights, factor:
     size = np.maximum(islands.size, 1)
     reg = 1e-9 * np.bincount(islands.label, K.diagonal(), minlength=islands.n) / size
     mean_mass = np.bincount(islands.label, mass, minlength=islands.n) / size
-    whisper = (reg / np.maximum(mean_mass, 1e-300))[islands.label] * mass
+    whisper = safe_divide(reg, mean_mass)[islands.label] * mass
     H = (2.0 * (K + sp.diags(whisper))).tocsr()
     every = np.ones(islands.n, dtype=bool)
     return Proxy(frames, weights, H, whisper, pinned, perm, [_block(H, islands, perm, every)] if factor else [])
@@ -377,7 +376,7 @@ def unfolded(X, faces, uv, islands: Islands, he_twin, order=None) -> Refinement:
 
 
 def _start(
-    X, faces, x, he_twin, islands: Islands, frames: FaceFrames, per_face: Islands, pinned, order=None, poor=None
+    X, faces, x, he_twin, islands: Islands, frames: FaceFrames, per_face: Labelled, pinned, order=None, poor=None
 ):
     """The start of every island: its seed ``x`` (n, 2), unless the seed folds or crushes a
     face (UV area below ``_COLLAPSED`` times its 3D area) and the island has no pins
@@ -424,7 +423,7 @@ def _start(
     return x, still, chosen == 1, chosen == 2
 
 
-def _island_energy(frames: FaceFrames, per_face: Islands, uv: np.ndarray) -> np.ndarray:
+def _island_energy(frames: FaceFrames, per_face: Labelled, uv: np.ndarray) -> np.ndarray:
     """Per-island symmetric Dirichlet energy of a layout (inf where a face folds)."""
     a, b, c, d = frames.jacobians(uv)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -515,73 +514,6 @@ class _Descent:
         self.gamma = np.where(which, 1.0, self.gamma)
         self.out.proxies += 1
 
-    # ---------------------------------------------------------------- ARAP
-
-    def local_global(self, steps: int) -> None:
-        """Local/global steps before the descent: large moves, one factored solve each.
-
-        An island near isometric takes ARAP steps (Liu et al. 2008) with the proxy as it
-        is, each taken whole if it folds nothing and lowers the energy, at most ``steps``
-        and until one does not. An island far from it (a crushed start) takes SLIM steps
-        (Rabinovich et al. 2017): the proxy re-weighted at every step, the step cut back
-        to fold nothing and to lower the energy, while each lowers it by ``_SLIM_DROP``
-        or more, at most ``_SLIM_STEPS``.
-        """
-        fr, islands, per_face = self.frames, self.islands, self.per_face
-        stepping = self.active.copy()
-        for k in range(max(steps, _SLIM_STEPS)):  # local/global steps
-            tick()
-            far = stepping & self.reweighting & (self.E > _NEAR * 4.0 * self.island_area)
-            stepping &= far | (k < steps)
-            if not stepping.any():
-                break
-            if far.any():
-                self.refresh(0, which=far)
-            p = np.where(islands.spread(stepping), self._global_step() - self.x, 0.0)
-            dJ = fr.jacobians(p)
-            t = np.where(far, np.minimum(1.0, 0.9 * per_face.min(_max_step(self.J, dJ, 1.0 / 0.9))), 1.0)
-            t = np.where(stepping, t, 0.0)
-            for _ in range(40):  # halvings of the far islands' steps, until each lowers the energy
-                Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(self.J, dJ))
-                Et, Gt = self.energies(Jt)
-                folds = per_face.sum((Jt[0] * Jt[3] - Jt[1] * Jt[2]) <= 0) > 0
-                worse = (t > 0) & (folds | ~(Et < self.E))
-                if not (worse & far).any():
-                    break
-                t = np.where(worse & far, 0.5 * t, t)
-            take = (t > 0) & ~worse
-            if not take.any():
-                break
-            dropped = Et < (1.0 - _SLIM_DROP) * self.E
-            self.x = np.where(islands.spread(take), self.x + islands.spread(t) * p, self.x)
-            self.J = tuple(np.where(per_face.expand(take), jt, j) for jt, j in zip(Jt, self.J))
-            self.G = [np.where(per_face.expand(take), gt, gk) for gt, gk in zip(Gt, self.G)]
-            self.E = np.where(take, Et, self.E)
-            stepping = take & (~far | dropped)  # an island that declines, or slows down, stops
-            self.trace.append(self.E)
-            self.out.arap_iterations += 1
-
-    def _global_step(self) -> np.ndarray:
-        """The layout whose Jacobians are closest to the rotations closest to the current
-        ones, in the proxy's norm (pinned vertices stay)."""
-        fr = self.frames
-        a, b, c, d = self.J
-        # the rotation closest to each Jacobian: (cos, sin) along (a + d, c - b), no
-        # trigonometry; weighted as the proxy weighs each face
-        w = self.proxy.weights * self.area
-        cs, sn = a + d, c - b
-        h = np.hypot(cs, sn)
-        flat = h == 0  # arctan2(0, 0) = 0: the identity
-        h = w / np.where(flat, 1.0, h)
-        cs = np.where(flat, w, cs * h)
-        sn = sn * h
-        rhs = 2.0 * np.stack([fr.DxT @ cs - fr.DyT @ sn, fr.DxT @ sn + fr.DyT @ cs], axis=1)
-        if self.fixed.size:
-            rhs -= self.proxy.H[:, self.fixed] @ self.x[self.fixed]
-        y = self.proxy.solve(rhs)
-        y[self.pinned] = self.x[self.pinned]
-        return y
-
     # ---------------------------------------------------------------- L-BFGS
 
     def direction(self, g: np.ndarray):
@@ -665,30 +597,104 @@ class _Descent:
         self.x, self.J, self.E = x_new, Jt, Et
         return g_new
 
-    def converged(self) -> None:
-        """Stop the islands whose energy fell by less than ``tol`` over the last
-        ``_WINDOW`` iterations, or by less than ``tol / 100`` over the last one (an island
-        that was converged when the descent began); an island above its ``settle`` energy
-        per area only once its faces' log area ratios also moved by less than ``_STILL``
-        (area-weighted RMS) over the window."""
-        last = self.history[-1] if self.history else None
-        self.history = [*self.history, self.E][-(_WINDOW + 1) :]
-        if last is not None:
-            self.active &= ~(last - self.E < 0.01 * self.tol * self.E)
-        if np.isfinite(self.settle).any():
-            a, b, c, d = self.J
-            self.moves = [*self.moves, np.log(np.abs(a * d - b * c) + 1e-300)][-(_WINDOW + 1) :]
-        if len(self.history) > _WINDOW:
-            stop = self.history[0] - self.E < self.tol * self.E
-            settling = self.E > self.settle * self.island_area
-            if settling.any():
-                if len(self.moves) > _WINDOW:
-                    change = self.moves[-1] - self.moves[0]
-                    rms = np.sqrt(self.per_face.sum(self.area * change * change) / np.maximum(self.island_area, 1e-300))
-                    stop &= ~settling | (rms < _STILL)
-                else:
-                    stop &= ~settling
-            self.active &= ~stop
+
+# ---------------------------------------------------------------- ARAP and SLIM steps
+
+
+def _local_global(desc: _Descent, steps: int) -> None:
+    """Local/global steps before the descent: large moves, one factored solve each.
+
+    An island near isometric takes ARAP steps (Liu et al. 2008) with the proxy as it
+    is, each taken whole if it folds nothing and lowers the energy, at most ``steps``
+    and until one does not. An island far from it (a crushed start) takes SLIM steps
+    (Rabinovich et al. 2017): the proxy re-weighted at every step, the step cut back
+    to fold nothing and to lower the energy, while each lowers it by ``_SLIM_DROP``
+    or more, at most ``_SLIM_STEPS``.
+    """
+    fr, islands, per_face = desc.frames, desc.islands, desc.per_face
+    stepping = desc.active.copy()
+    for k in range(max(steps, _SLIM_STEPS)):  # local/global steps
+        tick()
+        far = stepping & desc.reweighting & (desc.E > _NEAR * 4.0 * desc.island_area)
+        stepping &= far | (k < steps)
+        if not stepping.any():
+            break
+        if far.any():
+            desc.refresh(0, which=far)
+        p = np.where(islands.spread(stepping), _global_step(desc) - desc.x, 0.0)
+        dJ = fr.jacobians(p)
+        t = np.where(far, np.minimum(1.0, 0.9 * per_face.min(_max_step(desc.J, dJ, 1.0 / 0.9))), 1.0)
+        t = np.where(stepping, t, 0.0)
+        for _ in range(40):  # halvings of the far islands' steps, until each lowers the energy
+            Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(desc.J, dJ))
+            Et, Gt = desc.energies(Jt)
+            folds = per_face.sum((Jt[0] * Jt[3] - Jt[1] * Jt[2]) <= 0) > 0
+            worse = (t > 0) & (folds | ~(Et < desc.E))
+            if not (worse & far).any():
+                break
+            t = np.where(worse & far, 0.5 * t, t)
+        take = (t > 0) & ~worse
+        if not take.any():
+            break
+        dropped = Et < (1.0 - _SLIM_DROP) * desc.E
+        desc.x = np.where(islands.spread(take), desc.x + islands.spread(t) * p, desc.x)
+        desc.J = tuple(np.where(per_face.expand(take), jt, j) for jt, j in zip(Jt, desc.J))
+        desc.G = [np.where(per_face.expand(take), gt, gk) for gt, gk in zip(Gt, desc.G)]
+        desc.E = np.where(take, Et, desc.E)
+        stepping = take & (~far | dropped)  # an island that declines, or slows down, stops
+        desc.trace.append(desc.E)
+        desc.out.arap_iterations += 1
+
+
+def _global_step(desc: _Descent) -> np.ndarray:
+    """The layout whose Jacobians are closest to the rotations closest to the current
+    ones, in the proxy's norm (pinned vertices stay)."""
+    fr = desc.frames
+    a, b, c, d = desc.J
+    # the rotation closest to each Jacobian: (cos, sin) along (a + d, c - b), no
+    # trigonometry; weighted as the proxy weighs each face
+    w = desc.proxy.weights * desc.area
+    cs, sn = a + d, c - b
+    h = np.hypot(cs, sn)
+    flat = h == 0  # arctan2(0, 0) = 0: the identity
+    h = w / np.where(flat, 1.0, h)
+    cs = np.where(flat, w, cs * h)
+    sn = sn * h
+    rhs = 2.0 * np.stack([fr.DxT @ cs - fr.DyT @ sn, fr.DxT @ sn + fr.DyT @ cs], axis=1)
+    if desc.fixed.size:
+        rhs -= desc.proxy.H[:, desc.fixed] @ desc.x[desc.fixed]
+    y = desc.proxy.solve(rhs)
+    y[desc.pinned] = desc.x[desc.pinned]
+    return y
+
+
+# ---------------------------------------------------------------- the stopping test
+
+
+def _converged(desc: _Descent) -> None:
+    """Stop the islands whose energy fell by less than ``tol`` over the last
+    ``_WINDOW`` iterations, or by less than ``tol / 100`` over the last one (an island
+    that was converged when the descent began); an island above its ``settle`` energy
+    per area only once its faces' log area ratios also moved by less than ``_STILL``
+    (area-weighted RMS) over the window."""
+    last = desc.history[-1] if desc.history else None
+    desc.history = [*desc.history, desc.E][-(_WINDOW + 1) :]
+    if last is not None:
+        desc.active &= ~(last - desc.E < 0.01 * desc.tol * desc.E)
+    if np.isfinite(desc.settle).any():
+        a, b, c, d = desc.J
+        desc.moves = [*desc.moves, np.log(np.abs(a * d - b * c) + TINY)][-(_WINDOW + 1) :]
+    if len(desc.history) > _WINDOW:
+        stop = desc.history[0] - desc.E < desc.tol * desc.E
+        settling = desc.E > desc.settle * desc.island_area
+        if settling.any():
+            if len(desc.moves) > _WINDOW:
+                change = desc.moves[-1] - desc.moves[0]
+                rms = np.sqrt(safe_divide(desc.per_face.sum(desc.area * change * change), desc.island_area))
+                stop &= ~settling | (rms < _STILL)
+            else:
+                stop &= ~settling
+        desc.active &= ~stop
 
 
 @dataclass
@@ -740,10 +746,10 @@ def refine(
         island), relative, over the last ``_WINDOW`` iterations.
     settle : (n_islands,) float, optional
         Per island, an energy per area above which it stops only once its layout has
-        settled too (see :meth:`_Descent.converged`); inf or None: never.
+        settled too (see :func:`_converged`); inf or None: never.
     arap : int
         ARAP steps before the descent, on islands near isometric (see
-        :meth:`_Descent.local_global`).
+        :func:`_local_global`).
     pinned : (n,) bool, optional
         Vertices that keep their UV.
     order : (n,) int64, optional
@@ -780,7 +786,7 @@ def refine(
     d = _Descent(X, faces, x, islands, pinned, proxy, tol, settle, out)
     d.begin(~stuck & (np.bincount(islands.label, ~pinned, minlength=k) > 0))
     if carry is None:
-        d.local_global(arap)
+        _local_global(d, arap)
         _leave_endless(d)
     else:
         d.memory, d.gamma, d.history = carry.memory, carry.gamma, carry.history
@@ -790,7 +796,7 @@ def refine(
             carry.reweighting,
         )
         d.moves = carry.moves
-    out.energy += [float(e.sum()) / max(d.live_area, 1e-300) for e in d.trace]
+    out.energy += [float(safe_divide(e.sum(), d.live_area)) for e in d.trace]
     g = d.gradient(d.G)
     for it in range(1, iterations + 1):  # quasi-Newton steps, each one factored solve
         tick(it / (it + _HALFWAY))
@@ -800,7 +806,7 @@ def refine(
         if not (t > 0).any():
             break
         g = d.step(p, t, Jt, Et, Gt, dJ, g)
-        d.converged()
+        _converged(d)
         out.energy.append(float(d.E.sum()) / d.live_area)
         out.iterations = it
         if not d.active.any():

@@ -10,16 +10,21 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
+from enum import StrEnum
 
 import numpy as np
 
 from .errors import counted
 
 __all__ = [
+    "FOUR_STEP_KINDS",
+    "OPENED_KINDS",
+    "TOPOLOGY_KINDS",
     "IslandReport",
     "SolverWarning",
     "Stats",
     "Timings",
+    "WarningKind",
     "charted",
     "defects",
     "opened",
@@ -28,7 +33,7 @@ __all__ = [
     "warnings",
 ]
 
-FAR = 1e3  # a refined island with more symmetric Dirichlet energy per area than this is reported
+FAR_ENERGY = 1e3  # a refined island with more symmetric Dirichlet energy per area than this is reported
 
 
 Namer = Callable[[str, tuple[int, ...]], str]
@@ -42,45 +47,68 @@ def solver_names(element: str, first: tuple[int, ...]) -> str:
     return f"{element} {first[0]}"
 
 
+class WarningKind(StrEnum):
+    """What a :class:`SolverWarning` is about; what its ``count`` counts and its
+    ``element`` (``first`` names the first one)."""
+
+    DUPLICATE_FACES = "duplicate_faces"  # faces repeating an earlier face's vertices (faces)
+    NON_MANIFOLD_EDGES = "non_manifold_edges"  # edges shared by more than two faces, cut (edges)
+    BOWTIES = "bowties"  # vertices whose faces form several fans, split (vertices)
+    CUT_CLOSED = "cut_closed"  # islands closed, cut into disks automatically (islands)
+    CUT_HANDLES = "cut_handles"  # islands with handles, cut (islands)
+    CUT_HOLES = "cut_holes"  # islands with several boundary loops, cut (islands)
+    CUT_NONORIENTABLE = "cut_nonorientable"  # non-orientable islands, cut (islands)
+    EXTRA_CUTS = "extra_cuts"  # edges cut further to lower distortion (edges; no first)
+    CHARTS = "charts"  # charts that islands were cut into (charts; first: one of them)
+    OVER_BUDGET = "over_budget"  # islands whose charts stretch beyond Max Stretch (islands)
+    CUT_APART = "cut_apart"  # islands that overlapped themselves, cut apart (islands; first: a piece)
+    NOT_CONVERGED = "not_converged"  # islands on which Step 3 missed its tolerance (islands)
+    DEGENERATE_SCALE = "degenerate_scale"  # islands whose Step 4 scale was clipped (islands; no first)
+    DEGENERATE_FANS = "degenerate_fans"  # vertices with no exact reconstruction (vertices; no first)
+    RESTARTED = "restarted"  # islands whose four-step layout folded and was replaced (islands)
+    PINS_ON_ONE_UV = "pins_on_one_uv"  # islands whose pins all sit on one UV (islands)
+    PIN_CONFLICT = "pin_conflict"  # pinned vertices whose corners have different UVs (vertices; first: an island)
+    FAR_FROM_ISOMETRIC = "far_from_isometric"  # refined islands left far from isometric (islands)
+    PINS_UNREACHED = "pins_unreached"  # islands whose pins could not all be reached unfolded (islands)
+    OVERLAPPING = "overlapping"  # islands whose layout overlaps itself (islands)
+    FLIPPED = "flipped"  # triangles folded in the layout (faces)
+    UNUSED_VERTICES = "unused_vertices"  # vertices of no face, placed at (0, 0) (vertices; no first)
+
+
+# what the topology split or cut open (the first solve says it; solving some islands again does not)
+TOPOLOGY_KINDS = frozenset(
+    {
+        WarningKind.DUPLICATE_FACES,
+        WarningKind.NON_MANIFOLD_EDGES,
+        WarningKind.BOWTIES,
+        WarningKind.CUT_CLOSED,
+        WarningKind.CUT_HANDLES,
+        WarningKind.CUT_HOLES,
+        WarningKind.CUT_NONORIENTABLE,
+    }
+)
+OPENED_KINDS = frozenset(
+    {WarningKind.CUT_CLOSED, WarningKind.CUT_HANDLES, WarningKind.CUT_HOLES, WarningKind.CUT_NONORIENTABLE}
+)
+# what the paper's four steps met on the way (the refined layout starts from theirs)
+FOUR_STEP_KINDS = frozenset(
+    {WarningKind.NOT_CONVERGED, WarningKind.DEGENERATE_SCALE, WarningKind.DEGENERATE_FANS, WarningKind.RESTARTED}
+)
+
+
 @dataclass(frozen=True)
 class SolverWarning:
     """One thing about a result that its user should know.
 
-    ``kind``, and what ``count`` counts and ``element`` (``first`` names the first one):
-
-    ===================== ===========================================================
-    ``duplicate_faces``   faces repeating an earlier face's vertices (faces)
-    ``non_manifold_edges`` edges shared by more than two faces, cut (edges)
-    ``bowties``           vertices whose faces form several fans, split (vertices)
-    ``cut_closed``        islands closed, cut into disks automatically (islands)
-    ``cut_handles``       islands with handles, cut (islands)
-    ``cut_holes``         islands with several boundary loops, cut (islands)
-    ``cut_nonorientable`` non-orientable islands, cut (islands)
-    ``extra_cuts``        edges cut further to lower distortion (edges; no first)
-    ``charts``            charts that islands were cut into (charts; first: one of them)
-    ``over_budget``       islands whose charts stretch beyond Max Stretch (islands)
-    ``cut_apart``         islands that overlapped themselves and were cut apart
-                          (islands; first: a piece of one)
-    ``not_converged``     islands on which Step 3 missed its tolerance (islands)
-    ``degenerate_scale``  islands whose Step 4 scale was clipped (islands; no first)
-    ``degenerate_fans``   vertices with no exact reconstruction (vertices; no first)
-    ``restarted``         islands whose four-step layout folded and was replaced (islands)
-    ``pins_on_one_uv``    islands whose pins all sit on one UV (islands)
-    ``pin_conflict``      pinned vertices whose corners have different UVs (vertices;
-                          first: an island holding one)
-    ``far_from_isometric`` refined islands left far from isometric (islands)
-    ``pins_unreached``    islands whose pins could not all be reached unfolded (islands)
-    ``overlapping``       islands whose layout overlaps itself (islands)
-    ``flipped``           triangles folded in the layout (faces)
-    ``unused_vertices``   vertices of no face, placed at (0, 0) (vertices; no first)
-    ===================== ===========================================================
+    ``kind`` is a :class:`WarningKind` (a string enum: it compares equal to its value),
+    which says what ``count`` counts and what ``element`` ``first`` names.
 
     The text is ``template`` with ``{first}`` naming the first element; a caller that
     numbers elements its own way (the Blender operator: mesh faces and vertices, not
     triangles and split vertices) words it with :meth:`worded`.
     """
 
-    kind: str
+    kind: WarningKind
     count: int
     element: str  # "face", "vertex", "edge", "island", or "" (no first element)
     first: tuple[int, ...]
@@ -98,7 +126,7 @@ class SolverWarning:
         return self.text
 
 
-def _warning(kind: str, count: int, element: str, first, template: str) -> SolverWarning:
+def _warning(kind: WarningKind, count: int, element: str, first, template: str) -> SolverWarning:
     first = () if first is None else tuple(int(i) for i in np.atleast_1d(first))
     return SolverWarning(kind, int(count), element, first, template)
 
@@ -261,10 +289,10 @@ def opened(closed, handles, holes, nonorientable) -> list[SolverWarning]:
     ones with handles, with several boundary loops, non-orientable ones."""
     out = []
     for kind, name, isl in (
-        ("cut_closed", "closed", closed),
-        ("cut_handles", "with handles", handles),
-        ("cut_holes", "with several boundary loops", holes),
-        ("cut_nonorientable", "non-orientable", nonorientable),
+        (WarningKind.CUT_CLOSED, "closed", closed),
+        (WarningKind.CUT_HANDLES, "with handles", handles),
+        (WarningKind.CUT_HOLES, "with several boundary loops", holes),
+        (WarningKind.CUT_NONORIENTABLE, "non-orientable", nonorientable),
     ):
         if len(isl):
             template = (
@@ -286,7 +314,7 @@ def cut_apart(pieces: np.ndarray) -> list[SolverWarning]:
         f"{counted(n, 'island', 'islands')} overlapped {'itself' if n == 1 else 'themselves'} in UV space and "
         f"{'was' if n == 1 else 'were'} cut apart (first: {{first}})"
     )
-    return [_warning("cut_apart", n, "island", pieces[0], template)]
+    return [_warning(WarningKind.CUT_APART, n, "island", pieces[0], template)]
 
 
 def defects(found) -> list[SolverWarning]:
@@ -299,21 +327,21 @@ def defects(found) -> list[SolverWarning]:
             f"{counted(n, 'face repeats', 'faces repeat')} the vertices of an earlier face (first: {{first}}): "
             f"{'it is' if n == 1 else 'each is'} laid out as an island of its own; delete the copies"
         )
-        out.append(_warning("duplicate_faces", n, "face", found.duplicate_faces[0], template))
+        out.append(_warning(WarningKind.DUPLICATE_FACES, n, "face", found.duplicate_faces[0], template))
     if len(found.edges):
         n = len(found.edges)
         template = (
             f"{counted(n, 'edge is', 'edges are')} shared by more than two faces (first: {{first}}): cut as seams, "
             "each fan of faces on its own side (Select > Select All by Trait > Non Manifold shows them)"
         )
-        out.append(_warning("non_manifold_edges", n, "edge", found.edges[0], template))
+        out.append(_warning(WarningKind.NON_MANIFOLD_EDGES, n, "edge", found.edges[0], template))
     if len(found.bowties):
         n = len(found.bowties)
         template = (
             f"{counted(n, 'vertex joins', 'vertices join')} faces that share no edge around "
             f"{'it' if n == 1 else 'them'} (first: {{first}}): split into one copy for each group of faces"
         )
-        out.append(_warning("bowties", n, "vertex", found.bowties[0], template))
+        out.append(_warning(WarningKind.BOWTIES, n, "vertex", found.bowties[0], template))
     return out
 
 
@@ -326,7 +354,7 @@ def lowered(added: int, before: np.ndarray, score: np.ndarray) -> list[SolverWar
         f"{added} more edges cut on {int((score < before).sum())} of them, lowering "
         f"their area distortion from {before.mean():.3g} to {score.mean():.3g}"
     )
-    return [_warning("extra_cuts", added, "", None, template)]
+    return [_warning(WarningKind.EXTRA_CUTS, added, "", None, template)]
 
 
 def charted(islands: int, not_disks: int, curved: int, charts: int, energy: float, budget: float, first: int):
@@ -347,7 +375,7 @@ def charted(islands: int, not_disks: int, curved: int, charts: int, energy: floa
         f"{counted(islands, 'island was', 'islands were')} {into} ({', '.join(why)}; "
         f"first: {{first}}), distortion {energy:.3f} (4 is isometric)"
     )
-    return [_warning("charts", charts, "island", first, template)]
+    return [_warning(WarningKind.CHARTS, charts, "island", first, template)]
 
 
 def over_budget(islands: int, pinned: int, energy: float, budget: float, allowed: float, refined: bool, first: int):
@@ -362,7 +390,7 @@ def over_budget(islands: int, pinned: int, energy: float, budget: float, allowed
         f"(distortion {energy:.3f} where {budget:.3g} allows {allowed:.3f}{why}; "
         f"first: {{first}}): {help_}"
     )
-    return [_warning("over_budget", islands, "island", first, template)]
+    return [_warning(WarningKind.OVER_BUDGET, islands, "island", first, template)]
 
 
 def warnings(islands: IslandReport, converged: np.ndarray, flipped: np.ndarray, unused: int) -> list[SolverWarning]:
@@ -376,27 +404,28 @@ def _step_warnings(islands: IslandReport, converged: np.ndarray) -> list[SolverW
     bad = np.flatnonzero(~converged)
     if bad.size:
         template = (
-            f"step 3 did not converge on {bad.size} island(s) (first: {{first}}, "
+            f"step 3 did not converge on {counted(bad.size, 'island', 'islands')} (first: {{first}}, "
             f"subspace change {islands.change[bad[0]]:.1e})"
         )
-        out.append(_warning("not_converged", bad.size, "island", bad[0], template))
+        out.append(_warning(WarningKind.NOT_CONVERGED, bad.size, "island", bad[0], template))
     if islands.clipped.any():
         n = int(islands.clipped.sum())
-        out.append(_warning("degenerate_scale", n, "", None, f"step 4 fitted a degenerate scale on {n} island(s)"))
+        template = f"step 4 fitted a degenerate scale on {counted(n, 'island', 'islands')}"
+        out.append(_warning(WarningKind.DEGENERATE_SCALE, n, "", None, template))
     if islands.regularized.any():
         n = int(islands.regularized.sum())
         template = f"{counted(n, 'vertex has', 'vertices have')} no exact reconstruction (degenerate fans)"
-        out.append(_warning("degenerate_fans", n, "", None, template))
+        out.append(_warning(WarningKind.DEGENERATE_FANS, n, "", None, template))
     restarted = {"conformal map": int(islands.conformal.sum()), "Tutte embedding": int(islands.tutte.sum())}
     if sum(restarted.values()):
         seeds = " and ".join(f"{k} from a {name}" for name, k in restarted.items() if k)
         first = np.argmax(islands.conformal | islands.tutte)
         template = f"the four-step layout folded on some islands; laid out instead: {seeds}"
-        out.append(_warning("restarted", sum(restarted.values()), "island", first, template))
+        out.append(_warning(WarningKind.RESTARTED, sum(restarted.values()), "island", first, template))
     # a start that crushed faces the descent could not open: the report's stretch shows
     # it, this says what to do about it
     energy, area = islands.refine_energy, islands.refine_area
-    stuck = np.flatnonzero((area > 0) & (energy > FAR * area) & ~islands.shaped)
+    stuck = np.flatnonzero((area > 0) & (energy > FAR_ENERGY * area) & ~islands.shaped)
     if stuck.size:
         i = int(stuck[0])
         template = (
@@ -404,7 +433,7 @@ def _step_warnings(islands: IslandReport, converged: np.ndarray) -> list[SolverW
             f"distortion {energy[i] / area[i]:.3g}, 4 is isometric): parts of it stay squeezed flat; "
             "mark seams to cut it where it is squeezed"
         )
-        out.append(_warning("far_from_isometric", stuck.size, "island", i, template))
+        out.append(_warning(WarningKind.FAR_FROM_ISOMETRIC, stuck.size, "island", i, template))
     return out
 
 
@@ -416,21 +445,21 @@ def _pin_warnings(islands: IslandReport) -> list[SolverWarning]:
             f"{counted(n, 'island has', 'islands have')} all their pins on one UV (first: {{first}}): "
             "moved there, not scaled or shaped by them"
         )
-        out.append(_warning("pins_on_one_uv", n, "island", np.argmax(islands.one_point), template))
+        out.append(_warning(WarningKind.PINS_ON_ONE_UV, n, "island", np.argmax(islands.one_point), template))
     if islands.pin_conflicts.any():
         n = int(islands.pin_conflicts.sum())
         template = (
             f"{counted(n, 'pinned vertex has', 'pinned vertices have')} corners pinned to different UVs "
             "(first: {first}): each is held at their mean"
         )
-        out.append(_warning("pin_conflict", n, "island", np.argmax(islands.pin_conflicts > 0), template))
+        out.append(_warning(WarningKind.PIN_CONFLICT, n, "island", np.argmax(islands.pin_conflicts > 0), template))
     missed = np.flatnonzero(~islands.reached)
     if missed.size:
         template = (
-            f"the pins of {missed.size} island(s) could not all be reached without folding the layout "
-            "(first: {first})"
+            f"the pins of {counted(missed.size, 'island', 'islands')} could not all be reached without folding "
+            "the layout (first: {first})"
         )
-        out.append(_warning("pins_unreached", missed.size, "island", missed[0], template))
+        out.append(_warning(WarningKind.PINS_UNREACHED, missed.size, "island", missed[0], template))
     return out
 
 
@@ -442,15 +471,15 @@ def _layout_warnings(islands: IslandReport, flipped: np.ndarray, unused: int) ->
             f"{counted(over.size, 'island overlaps', 'islands overlap')} itself in UV space (first: {{first}}): "
             "a texture painted there shows up twice; a seam across the overlap separates it"
         )
-        out.append(_warning("overlapping", over.size, "island", over[0], template))
+        out.append(_warning(WarningKind.OVERLAPPING, over.size, "island", over[0], template))
     if flipped.any():
         n = int(flipped.sum())
         template = f"{counted(n, 'triangle is', 'triangles are')} flipped in the layout (first: {{first}})"
-        out.append(_warning("flipped", n, "face", np.argmax(flipped), template))
+        out.append(_warning(WarningKind.FLIPPED, n, "face", np.argmax(flipped), template))
     if unused:
         template = (
             f"{counted(unused, 'vertex belongs', 'vertices belong')} to no face and "
             f"{'was' if unused == 1 else 'were'} placed at (0, 0)"
         )
-        out.append(_warning("unused_vertices", unused, "", None, template))
+        out.append(_warning(WarningKind.UNUSED_VERTICES, unused, "", None, template))
     return out

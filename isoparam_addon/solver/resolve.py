@@ -16,20 +16,20 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .geometry import signed_double_areas
+from .geometry import safe_divide, signed_double_areas
 from .islands import Islands, first_rows
 from .mesh import unit_of
 from .options import Options, Problem
 from .pipeline import solve
 from .placement import pack_islands
-from .report import IslandReport, SolverWarning
-from .result import TOPOLOGY_WARNINGS, Parametrization, assemble
+from .report import TOPOLOGY_KINDS, IslandReport, SolverWarning, WarningKind
+from .result import Parametrization, assemble
 from .topology import build_topology
 
 __all__ = ["Part", "carried_warnings", "combine", "cut_further", "pairs", "solve_islands", "sub_problem"]
 
 # what a search's first solve decided, which solving some islands again does not say again
-_DECIDED = (*TOPOLOGY_WARNINGS, "extra_cuts", "charts")
+_DECIDED = TOPOLOGY_KINDS | {WarningKind.EXTRA_CUTS, WarningKind.CHARTS}
 
 
 class Part:
@@ -81,7 +81,7 @@ def sub_problem(problem: Problem, faces: np.ndarray) -> tuple[Problem, np.ndarra
 
     pins = None if problem.pins is None else (np.asarray(problem.pins[0])[faces], np.asarray(problem.pins[1])[faces])
     start = None if problem.start is None else problem.start[faces]
-    tol = None if problem.refine_tol is None else problem.refine_tol[faces]
+    tol = None if problem.face_tol is None else problem.face_tol[faces]
     settle = None if problem.settle_above is None else problem.settle_above[faces]
     part = Problem(
         V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins, start, tol, settle
@@ -170,7 +170,7 @@ def combine(first: Parametrization, parts: list[Part], problem: Problem, options
         uv_split = pack_islands(uv_split, Islands(topo.vertex_island, n), options.margin, report.held)
     if options.refine:  # the combined layout's energy, as the refinement measures it
         area = report.refine_area.sum()
-        stats.refine_energy.append(float(report.refine_energy.sum() / max(area, 1e-300)))
+        stats.refine_energy.append(float(safe_divide(report.refine_energy.sum(), area)))
     unit = unit_of(V)
     result = assemble(V, F, topo, uv_split / unit, unit, report, eigenvalues, converged, stats, first.timings)
     result.timings = replace(first.timings, merge=first.timings.merge + time.perf_counter() - t0)

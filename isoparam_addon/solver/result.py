@@ -12,7 +12,7 @@ from .overlap import boundary_crossings
 from .report import IslandReport, SolverWarning, Stats, Timings, defects, opened, warnings
 from .topology import Topology
 
-__all__ = ["TOPOLOGY_WARNINGS", "Parametrization", "assemble", "per_corner_and_vertex", "topology_warnings"]
+__all__ = ["Parametrization", "assemble", "per_corner_and_vertex", "topology_warnings"]
 
 
 @dataclass
@@ -145,22 +145,11 @@ def assemble(
         islands=report,
         vertices=V,
         faces=F,
-        turned=topo.flipped,
+        turned=topo.turned,
         warnings=topology_warnings(topo) + warnings(report, converged, flipped, unused),
         timings=timings,
         stats=stats,
     )
-
-
-TOPOLOGY_WARNINGS = (
-    "duplicate_faces",
-    "non_manifold_edges",
-    "bowties",
-    "cut_closed",
-    "cut_handles",
-    "cut_holes",
-    "cut_nonorientable",
-)
 
 
 def topology_warnings(topo: Topology):

@@ -1,9 +1,8 @@
 """Fold-free starting layouts for islands whose four-step layout folds.
 
-On a strongly curved island (measured: a Smart UV Project island wrapping the back of
-Suzanne's head, 785 vertices, 729 of its 1351 triangles folded) the two smallest
-eigenvectors of M describe a folded sheet, and no barrier descent can repair a layout
-that starts folded. Such islands restart from
+On a strongly curved island (a Smart UV Project island wrapping the back of Suzanne's
+head folds 729 of its 1351 triangles) the two smallest eigenvectors of M describe a
+folded sheet, and no barrier descent can repair a layout that starts folded. Such islands restart from
 
 1. a *least-squares conformal map* (Levy et al. 2002) with two pinned vertices: free
    boundary, low distortion on near-developable islands, fold-free in practice though
@@ -71,10 +70,9 @@ def lscm(X, faces, islands: Islands, frames, which: np.ndarray, order=None) -> n
 
     The residual ``(u_x - v_y, u_y + v_x)`` is ``(Dx + i Dy) z`` for ``z = u + i v``, so the
     normal equations are one Hermitian system in n complex unknowns rather than a real
-    one in 2n: a quarter of the structural nonzeros for SuperLU, whose time here follows
-    its symbolic work more than its arithmetic (measured on Suzanne subdivided 4 times with
-    Smart UV seams, its 11 folded islands, 60k vertices: 0.32-0.42 s against 0.77-0.94 s,
-    the same map to 1.4e-8 relative).
+    one in 2n: a quarter of the structural nonzeros for SuperLU, whose time follows its
+    symbolic work more than its arithmetic (about half the time of the real system, the
+    same map to rounding; docs/history.md).
     """
     n = len(X)
     sel_v = which[islands.label]
@@ -160,6 +158,9 @@ def tutte(X, faces, he_twin, islands: Islands, frames, which: np.ndarray, order=
         e1, e2 = P[:, (k + 1) % 3] - P[:, k], P[:, (k + 2) % 3] - P[:, k]
         n1 = np.maximum(np.linalg.norm(e1, axis=1), 1e-6 * size)
         n2 = np.maximum(np.linalg.norm(e2, axis=1), 1e-6 * size)
+        # (the angle as :func:`.geometry.triangle_angles` gives it up to rounding; computed
+        # here from this corner's own edges, which the Tutte starts were tuned with: the
+        # shared-normal form moves charting's rounding-sensitive choices, e.g. peaks)
         ang = np.arctan2(np.linalg.norm(np.cross(e1, e2), axis=1), (e1 * e2).sum(axis=1))
         tn = np.tan(np.clip(ang, 1e-6, np.pi - 1e-6) / 2)
         rows += [i, i]

@@ -44,7 +44,7 @@ class Topology:
         Island of each face, numbered by lowest face index.
     vertex_island : (ns,) int64
     n_islands : int
-    flipped : (m,) bool
+    turned : (m,) bool
         Faces whose corner order was reversed to orient their island.
     cut_edges : (k, 2) int64
         Input-vertex pairs of the edges cut automatically to make islands disks.
@@ -64,7 +64,7 @@ class Topology:
     face_island: np.ndarray
     vertex_island: np.ndarray
     n_islands: int
-    flipped: np.ndarray
+    turned: np.ndarray
     cut_edges: np.ndarray
     cut_islands: np.ndarray
     closed_islands: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
@@ -179,7 +179,7 @@ def build_topology(vertices, faces, seams=None, split_nonmanifold: bool = True, 
             face_island=face_island,
             vertex_island=vertex_island,
             n_islands=n_islands,
-            flipped=flip,
+            turned=flip,
             cut_edges=cut_edges,
             cut_islands=np.flatnonzero(~disk),
             closed_islands=reasons.closed,

@@ -33,6 +33,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
+from .geometry import NEXT, PREV, TINY
 from .local import Patch
 
 __all__ = ["Flagged", "reconstruction_weights"]
@@ -46,8 +47,6 @@ class Flagged(NamedTuple):
 
 
 _DEGENERATE = 1e-10  # det(C) / (tr C / 2)^2 below this: neighbours (nearly) collinear
-_NEXT = np.array([1, 2, 0])
-_PREV = np.array([2, 0, 1])
 
 
 def _affine_weights(P: np.ndarray, reg: float = 0.0):
@@ -69,7 +68,7 @@ def _affine_weights(P: np.ndarray, reg: float = 0.0):
     det = cxx * cyy - cxy * cxy
     degenerate = ~(det > _DEGENERATE * half_trace**2)
     if reg:
-        delta = reg * np.maximum(half_trace, 1e-300)
+        delta = reg * np.maximum(half_trace, TINY)
         cxx, cyy = cxx + delta, cyy + delta
         det = cxx * cyy - cxy * cxy
     # an unregularized degenerate row is replaced by the caller; a regularized one can
@@ -117,10 +116,10 @@ def _extra_vertex(X, faces, twin, patch: Patch, rows: np.ndarray):
     nb = patch.neighbours[rows]
     m = nb.shape[1]
     flat = faces.ravel()
-    rim = 3 * (C // 3) + _NEXT[C % 3]  # half-edge j_t -> j_t+1 in face t
+    rim = 3 * (C // 3) + NEXT[C % 3]  # half-edge j_t -> j_t+1 in face t
     tw = twin[rim]
     has = tw >= 0
-    far = np.where(has, flat[3 * (tw // 3) + _PREV[tw % 3]], -1)
+    far = np.where(has, flat[3 * (tw // 3) + PREV[tw % 3]], -1)
     centre = patch.vertex[rows]
     known = (far[:, :, None] == nb[:, None, :]).any(axis=2) | (far == centre[:, None])
     ok_t = has & ~known
@@ -134,22 +133,22 @@ def _extra_vertex(X, faces, twin, patch: Patch, rows: np.ndarray):
     # the next face: across (kb, k1) or (k1, ka) of face f1 = (kb, ka, k1) (twin of ka -> kb)
     t_he = tw[r, t]
     f1 = np.maximum(t_he, 0) // 3
-    e_next = 3 * f1 + _NEXT[np.maximum(t_he, 0) % 3]  # half-edge ka -> k1 ... in f1's order
-    cand_he = np.stack([e_next, 3 * f1 + _PREV[np.maximum(t_he, 0) % 3]], axis=1)  # the two other edges
+    e_next = 3 * f1 + NEXT[np.maximum(t_he, 0) % 3]  # half-edge ka -> k1 ... in f1's order
+    cand_he = np.stack([e_next, 3 * f1 + PREV[np.maximum(t_he, 0) % 3]], axis=1)  # the two other edges
     tw2 = twin[cand_he]
-    far2 = np.where(tw2 >= 0, flat[3 * (np.maximum(tw2, 0) // 3) + _PREV[np.maximum(tw2, 0) % 3]], -1)
+    far2 = np.where(tw2 >= 0, flat[3 * (np.maximum(tw2, 0) // 3) + PREV[np.maximum(tw2, 0) % 3]], -1)
     taken = (far2[:, :, None] == nb[:, None, :]).any(axis=2) | (far2 == centre[:, None]) | (far2 == k1[:, None])
     ok2_c = ok[:, None] & (tw2 >= 0) & ~taken
     ok2 = ok2_c.any(axis=1)
     c = np.argmax(ok2_c, axis=1)
     he = cand_he[r, c]
-    u_from, u_to = flat[he], flat[3 * (he // 3) + _NEXT[he % 3]]  # the shared edge of f1 and f2
+    u_from, u_to = flat[he], flat[3 * (he // 3) + NEXT[he % 3]]  # the shared edge of f1 and f2
     pos = {"a": Pa, "b": Pb, "k": y1}
 
     def where_is(v):  # the shared edge's ends are among ka, kb, k1
         return np.where((v == ka)[:, None], pos["a"], np.where((v == kb)[:, None], pos["b"], pos["k"]))
 
-    third = flat[3 * (he // 3) + _PREV[he % 3]]  # f1's corner off the shared edge
+    third = flat[3 * (he // 3) + PREV[he % 3]]  # f1's corner off the shared edge
     y2 = _unfold(X, where_is(u_from), where_is(u_to), where_is(third), u_from, u_to, far2[r, c])
     count = ok.astype(np.int64) + (ok & ok2)
     k = np.stack([k1, far2[r, c]], axis=1)

@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from isoparam_addon.blender import mesh_io
-from isoparam_addon.blender import unwrap as unwrap_module
+from isoparam_addon.blender import mesh_io, messages
 from isoparam_addon.solver import InvalidMeshError
 from isoparam_eval import meshes as ex
 
@@ -250,7 +249,7 @@ def test_overlapping_faces_are_named_in_the_message():
     err = InvalidMeshError(
         "duplicate_face", "1 face repeats the vertices of an earlier face (first: face 3)", "face", [3]
     )
-    text = unwrap_module._describe(err, sel)
+    text = messages.describe(err, sel)
     assert "faces 0 and 1 share three vertices" in text and "Delete or dissolve one of the two faces" in text
 
 

@@ -1,5 +1,5 @@
 """Isometric Unwrap watched and stopped, through the real bpy module: the solve in a worker
-thread (what the operator does when invoked from Blender's UI, :class:`unwrap.Background`),
+thread (what the operator does when invoked from Blender's UI, :class:`background.Background`),
 driven event by event as the modal operator drives it; Esc, or a cancel in any stage,
 leaves the mesh exactly as it was.
 
@@ -13,7 +13,7 @@ import time
 import numpy as np
 import pytest
 
-from isoparam_addon.blender import unwrap
+from isoparam_addon.blender import background, unwrap
 from isoparam_eval import meshes as ex
 
 from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, snapshot
@@ -64,7 +64,7 @@ def test_a_background_unwrap_writes_what_the_operator_writes(scene):
     bpy.ops.object.select_all(action="DESELECT")
     edit(ob)
     op = _Op()
-    watch = unwrap.Background(bpy.context, unwrap.Options())
+    watch = background.Background(bpy.context, unwrap.OperatorOptions())
     assert _drive(watch, op) == {"FINISHED"}
     assert watch.job.fraction == 1.0
     assert op.reports[0][1].startswith("Isometric Unwrap: ") and op.reports[0][0] == {"INFO"}
@@ -77,7 +77,7 @@ def test_esc_while_it_solves_cancels_and_leaves_the_mesh_exactly_as_it_was(scene
     ob = _unwrapped_mesh("spot", V, F)
     before = _state(ob)
     op = _Op()
-    watch = unwrap.Background(bpy.context, unwrap.Options())
+    watch = background.Background(bpy.context, unwrap.OperatorOptions())
     assert watch.running  # (spot takes tenths of a second: Esc comes while it solves)
     assert _drive(watch, op, first="ESC") == {"CANCELLED"}
     assert op.reports == [({"INFO"}, "Isometric Unwrap cancelled: nothing was changed")]
@@ -90,7 +90,7 @@ def test_events_that_could_edit_the_mesh_wait_and_looking_around_goes_through(sc
     V, F, _ = ex.load_obj(ex.SPOT)
     _unwrapped_mesh("spot", V, F)
     op = _Op()
-    watch = unwrap.Background(bpy.context, unwrap.Options())
+    watch = background.Background(bpy.context, unwrap.OperatorOptions())
     assert watch.on_event(op, bpy.context, "MIDDLEMOUSE") == {"PASS_THROUGH"}
     if watch.running:  # a key that would edit the mesh is swallowed while it solves
         assert watch.on_event(op, bpy.context, "G") in ({"RUNNING_MODAL"}, {"FINISHED"})
@@ -109,7 +109,7 @@ def _stages(ob) -> list[str]:
     original = unwrap.Unwrap
     unwrap.Unwrap = Recording
     try:
-        assert _drive(unwrap.Background(bpy.context, unwrap.Options()), _Op()) == {"FINISHED"}
+        assert _drive(background.Background(bpy.context, unwrap.OperatorOptions()), _Op()) == {"FINISHED"}
     finally:
         unwrap.Unwrap = original
     return list(dict.fromkeys(seen))
@@ -132,7 +132,7 @@ def test_a_cancel_in_any_stage_leaves_the_mesh_exactly_as_it_was(scene, monkeypa
 
         monkeypatch.setattr(unwrap, "Unwrap", StopIn)
         op = _Op()
-        assert _drive(unwrap.Background(bpy.context, unwrap.Options()), op) == {"CANCELLED"}, stop
+        assert _drive(background.Background(bpy.context, unwrap.OperatorOptions()), op) == {"CANCELLED"}, stop
         assert op.reports == [({"INFO"}, "Isometric Unwrap cancelled: nothing was changed")]
         object_mode()
         assert snapshot(ob) == before, stop
@@ -144,7 +144,7 @@ def test_with_nothing_selected_it_says_so_without_starting(scene):
     edit(ob)
     bpy.ops.mesh.select_all(action="DESELECT")
     op = _Op()
-    watch = unwrap.Background(bpy.context, unwrap.Options())
+    watch = background.Background(bpy.context, unwrap.OperatorOptions())
     assert not watch.running
     assert watch.conclude(op, bpy.context) == {"CANCELLED"}
     assert op.reports[0][0] == {"ERROR"} and "no faces selected" in op.reports[0][1]
@@ -154,7 +154,7 @@ def test_with_nothing_selected_it_says_so_without_starting(scene):
 def test_only_pressing_esc_cancels(scene, value):
     V, F, _ = ex.load_obj(ex.SPOT)
     _unwrapped_mesh("spot", V, F)
-    watch = unwrap.Background(bpy.context, unwrap.Options())
+    watch = background.Background(bpy.context, unwrap.OperatorOptions())
     watch.on_event(_Op(), bpy.context, "ESC", value)
     assert watch.job.cancel_requested == (value == "PRESS")
     _drive(watch, _Op())
