@@ -208,15 +208,16 @@ def _uv_map(me, name: str | None) -> str | None:
 
 
 def _measure(meshes) -> dict:
-    """Islands, stretch (worst, mean), flipped faces and self-overlapping islands of the
-    active UV maps of ``meshes`` (object mode)."""
+    """Islands, stretch (worst, mean), flipped faces, self-overlapping islands and the
+    coverage of the UV square (all meshes together) of the active UV maps of ``meshes``
+    (object mode)."""
     import numpy as np
 
     from isoparam_addon.blender import mesh_io
     from isoparam_addon.solver import metrics
 
     islands = flips = overlapping = 0
-    parts = []
+    parts, layouts = [], []
     for ob in meshes:
         sel = mesh_io.read_selection(ob, world_space=False, uv_selection_locks=False, every_face=True)
         cuv = sel.uv[sel.tri_loops].astype(np.float64)
@@ -226,6 +227,7 @@ def _measure(meshes) -> dict:
         flips += int(per.flipped.sum())
         overlapping += metrics.self_overlaps(sel.V, sel.F, cuv, label).islands
         parts.append(metrics.face_stretch(sel.V, sel.F, cuv)[1])
+        layouts.append(cuv)
     worst, mean, _ = metrics.combine_stretch(parts)
     return dict(
         islands=islands,
@@ -233,6 +235,7 @@ def _measure(meshes) -> dict:
         stretch_mean=round(mean, 4),
         flipped=flips,
         overlapping=overlapping,
+        coverage=round(metrics.coverage(*layouts), 4),
     )
 
 
@@ -418,7 +421,8 @@ def describe(entry: dict) -> str:
         return f"{name}: FAILED: {entry['error']} ({entry['seconds']:.2f} s)"
     text = (
         f"{name}: {entry['status']}, {entry['islands']} islands, stretch worst {entry['stretch_worst']:.3g} "
-        f"mean {entry['stretch_mean']:.4g}, {entry['flipped']} flipped, {entry['overlapping']} overlapping, "
+        f"mean {entry['stretch_mean']:.4g}, coverage {entry['coverage']:.0%}, {entry['flipped']} flipped, "
+        f"{entry['overlapping']} overlapping, "
         f"{entry['seconds']:.2f} s" + (f" -> {entry['output']}" if "output" in entry else "")
     )
     notes = "".join(f"\n    note: {n}" for n in entry.get("notes", []))

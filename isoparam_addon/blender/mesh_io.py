@@ -253,6 +253,14 @@ def write_uvs(mesh, uv_name: str, uv: np.ndarray) -> None:
     mesh.update()
 
 
+def read_uvs(mesh, uv_name: str, loops: np.ndarray) -> np.ndarray:
+    """The UVs (..., 2) float64 of the corners ``loops`` (any shape) in the named UV map
+    (object mode only)."""
+    uv = np.empty(2 * len(mesh.loops), dtype=np.float32)
+    mesh.uv_layers[uv_name].uv.foreach_get("vector", uv)
+    return uv.reshape(-1, 2)[loops].astype(np.float64)
+
+
 def _diagonals(tri_loops, tri_poly, loop_total):
     """Triangle sides inside their face (t, 3) bool: the corners are not neighbours.
     ``loop_total[tri_poly]`` is each triangle's face's corner count."""

@@ -34,7 +34,27 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         default="AABB",
     )
     margin: FloatProperty(
-        name="Margin", description="Space between packed islands", default=0.001, min=0.0, max=1.0, precision=3
+        name="Margin",
+        description="Space between packed islands (Blender's scaled margin); unused when Margin (px) is set",
+        default=0.001,
+        min=0.0,
+        max=1.0,
+        precision=3,
+    )
+    margin_pixels: IntProperty(
+        name="Margin (px)",
+        description="Pixels of empty texture around every island at Texture Size, so islands lie at least "
+        "twice that apart and bakes do not bleed; 0 uses Margin instead",
+        default=0,
+        min=0,
+        max=512,
+    )
+    texture_size: IntProperty(
+        name="Texture Size",
+        description="Pixels along the side of the texture the margin in pixels is meant for",
+        default=1024,
+        min=16,
+        max=65536,
     )
     correct_aspect: BoolProperty(
         name="Correct Aspect",

@@ -64,9 +64,10 @@ def prepare_pack(solved, objects, uv_selection_locks: bool, reselects: bool) -> 
     return kept
 
 
-def pack(context, solved, opts: OperatorOptions, pin: bool, kept: list[Kept]) -> None:
+def pack(context, solved, opts: OperatorOptions, pin: bool, kept: list[Kept]) -> list[np.ndarray]:
     """``uv.pack_islands`` over what was unwrapped, pinned islands left where they are;
-    then what :func:`prepare_pack` kept is put back (object mode, only if there is any).
+    then what :func:`prepare_pack` kept is put back, and the packed corner UVs of every
+    mesh solved (t, 3, 2) are read back for the report (object mode).
 
     The pack runs with sync selection on, so that it acts on whole selected faces whatever
     their UVs' own selection (off by default in 4.2; with it off, Blender's packer takes
@@ -82,7 +83,8 @@ def pack(context, solved, opts: OperatorOptions, pin: bool, kept: list[Kept]) ->
         ob = solved[0].obj
         with context.temp_override(active_object=ob, object=ob, edit_object=ob):
             bpy.ops.uv.pack_islands(
-                margin=opts.margin,
+                margin=opts.pack_margin,
+                margin_method="FRACTION" if opts.in_pixels else "SCALED",
                 rotate=True,
                 scale=not opts.world_scale,
                 pin=pin,
@@ -92,9 +94,10 @@ def pack(context, solved, opts: OperatorOptions, pin: bool, kept: list[Kept]) ->
     finally:
         if tool.use_uv_select_sync != sync_was:
             tool.use_uv_select_sync = sync_was
-        if kept:
-            with object_mode(context):
-                for k in kept:
-                    if k.pins_set:
-                        mesh_io.set_pins(k.mesh, k.uv_name, k.pins)
-                    mesh_io.set_uv_selection(k.mesh, k.uv_selection)
+        with object_mode(context):
+            for k in kept:
+                if k.pins_set:
+                    mesh_io.set_pins(k.mesh, k.uv_name, k.pins)
+                mesh_io.set_uv_selection(k.mesh, k.uv_selection)
+            packed = [mesh_io.read_uvs(s.obj.data, mesh_io.uv_layer_name(s.obj.data), s.sel.tri_loops) for s in solved]
+    return packed

@@ -55,6 +55,8 @@ class OperatorOptions:
     pack: bool = True
     pack_shape: str = "AABB"
     margin: float = 0.001
+    margin_pixels: int = 0
+    texture_size: int = 1024
     correct_aspect: bool = True
     world_scale: bool = False
     refine: int = 1000
@@ -65,6 +67,17 @@ class OperatorOptions:
     extra_cuts: int = 4
     split_overlaps: bool = True
     show_stretch: bool = False
+
+    @property
+    def in_pixels(self) -> bool:
+        """The margin is given in pixels of the texture (Blender's pack margin method
+        FRACTION: that share of the UV square around each island), not as Margin."""
+        return self.margin_pixels > 0
+
+    @property
+    def pack_margin(self) -> float:
+        """The margin as the pack takes it: Margin, or the pixels as a share of the side."""
+        return self.margin_pixels / self.texture_size if self.in_pixels else self.margin
 
 
 def _aspect(obj, sel: mesh_io.Selection) -> float | None:
@@ -106,6 +119,7 @@ class RunRecord:
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     details: list[str] = field(default_factory=list)
+    coverage: float = 0.0  # the share of the UV square the unwrapped faces cover
 
 
 last_run = RunRecord()
@@ -254,10 +268,12 @@ class Unwrap:
             text = f"not packed: UVs beyond {FAR_UV:.0e} or not finite (far pins, world scale, or a kept corner)"
             self.record.warnings.append(text)
             op.report({"WARNING"}, f"Isometric Unwrap: {text}")
+        written = [s.corner_uv for s in self.solved]
         if self.pack:
             t_pack = time.perf_counter()
-            pack(context, self.solved, self.opts, self.held or any(k.pins_set for k in self.kept), self.kept)
+            written = pack(context, self.solved, self.opts, self.held or any(k.pins_set for k in self.kept), self.kept)
             self.record.pack = time.perf_counter() - t_pack
+        self.record.coverage = metrics.coverage(*written)
         self.record.total = time.perf_counter() - self.started
         _report(op, self.solved, self.record)
         return {"FINISHED"}
@@ -357,7 +373,8 @@ def _solve_one(inp: _Input, opts: OperatorOptions, progress) -> tuple[_Solved, o
         in_place=not opts.pack,
         world_scale=opts.world_scale,
         aspect=inp.aspect,
-        margin=opts.margin if opts.pack else 0.0,
+        margin=opts.pack_margin if opts.pack else 0.0,
+        margin_share=opts.in_pixels,
         corner_vertex=sel.F,
     )
     with np.errstate(over="ignore"):
@@ -403,7 +420,7 @@ def _report(op, solved, record: RunRecord) -> None:
     op.report(
         {"INFO"},
         f"Isometric Unwrap: {counted(islands, 'island', 'islands')}{where}, stretch worst {worst:#.3g} "
-        f"mean {mean:#.4g}, {record.total:.2f} s",
+        f"mean {mean:#.4g}, coverage {record.coverage:.0%}, {record.total:.2f} s",
     )
     for s in solved:  # notes and warnings per mesh
         for note in s.notes:

@@ -74,6 +74,7 @@ __all__ = [
     "StretchSummary",
     "face_stretch",
     "combine_stretch",
+    "coverage",
     "stretch_colours",
     "self_overlaps",
 ]
@@ -431,6 +432,22 @@ def face_stretch(V, F, corner_uv) -> tuple[np.ndarray, StretchSummary]:
     total = float(w.sum())
     mean = float(np.dot(np.where(finite, d, 0.0), w)) / total if total > 0 else 0.0
     return d, StretchSummary(float(d.max(initial=1.0)), mean, total)
+
+
+def coverage(*corner_uvs: np.ndarray) -> float:
+    """The share of the texture the faces cover: the UV area of every face of the layouts
+    ``corner_uvs`` (each (t, 3, 2)) over the area of the smallest axis-aligned square that
+    holds them all (the unit square of a packed layout); 0 for no area. Overlapping faces
+    count twice."""
+    points = [np.asarray(c, dtype=np.float64).reshape(-1, 3, 2) for c in corner_uvs]
+    points = [p[np.isfinite(p).all(axis=(1, 2))] for p in points]
+    if not sum(len(p) for p in points):
+        return 0.0
+    area = sum(float(np.abs(corner_signed_areas(p)).sum()) for p in points)
+    lo = np.min([p.reshape(-1, 2).min(axis=0) for p in points if len(p)], axis=0)
+    hi = np.max([p.reshape(-1, 2).max(axis=0) for p in points if len(p)], axis=0)
+    side = float((hi - lo).max())
+    return area / (side * side) if side > 0 else 0.0
 
 
 def combine_stretch(parts: list[StretchSummary]) -> StretchSummary:

@@ -27,26 +27,42 @@ FAR_UV = 1e6
 # ---------------------------------------------------------------------------- UV space
 
 
-def _into_unit_square(uv, margin):
+def _into_unit_square(uv, margin, share: bool = False):
     """The layout (t, 3, 2) scaled into [0, 1], relative sizes kept, with the space around
-    it that Blender's ``pack_islands`` leaves one island (margin_method SCALED, measured
-    on bpy 5.0.1: a gap of margin * sqrt(bounding box area) / 10, so any margin in 0..1
-    leaves room)."""
+    it that Blender's ``pack_islands`` leaves one island: with margin_method SCALED a gap
+    of margin * sqrt(bounding box area) / 10 (so any margin in 0..1 leaves room), with
+    FRACTION (``share``) a gap of ``margin`` of the square (bpy 5.0.1)."""
     u, v = uv[..., 0], uv[..., 1]  # column by column: ``min(axis=0)`` of (k, 2) rows is 30x slower
     lo = np.array([u.min(), v.min()])
     box = np.array([u.max(), v.max()]) - lo
     size = max(float(box.max()), TINY)
-    side = np.sqrt(box[0] * box[1]) / size  # of the box's area once the layout is 1 wide
-    room = 1.0 / (1.0 + 0.2 * margin * side)
+    if share:
+        gap = min(margin, 0.49)
+        room = 1.0 - 2.0 * gap
+    else:
+        side = np.sqrt(box[0] * box[1]) / size  # of the box's area once the layout is 1 wide
+        room = 1.0 / (1.0 + 0.2 * margin * side)
+        gap = 0.1 * margin * side * room
     out = np.empty_like(uv)
     for c in range(2):  # the two UV columns
         np.multiply(uv[..., c] - lo[c], room / size, out=out[..., c])
-        out[..., c] += 0.1 * margin * side * room
+        out[..., c] += gap
     return out
 
 
 def place_in_uv_space(
-    uv, island, n, *, locked, old, in_place, world_scale, aspect=None, margin=0.0, corner_vertex=None
+    uv,
+    island,
+    n,
+    *,
+    locked,
+    old,
+    in_place,
+    world_scale,
+    aspect=None,
+    margin=0.0,
+    margin_share=False,
+    corner_vertex=None,
 ):
     """Final corner UVs of the unwrapped triangles, as the Blender operator writes them.
 
@@ -82,7 +98,8 @@ def place_in_uv_space(
         Image width / height: u is divided by it, so texels come out square.
     margin : float
         Space kept around the layout when it is fitted into [0, 1], as Blender's
-        ``uv.pack_islands`` keeps it.
+        ``uv.pack_islands`` keeps it: its margin method SCALED, or with ``margin_share``
+        FRACTION (``margin`` is then the share of the square, e.g. pixels / texture size).
 
     Returns
     -------
@@ -94,7 +111,7 @@ def place_in_uv_space(
     if aspect is not None:
         uv[..., 0] /= aspect
     if not world_scale and not in_place:
-        uv = _into_unit_square(uv, margin)
+        uv = _into_unit_square(uv, margin, margin_share)
     corners = Islands.labelled(np.repeat(island, 3), n)  # rows: the (t * 3) corners
     held = corners.sum(locked.ravel().astype(np.float64)) > 0
     # old UVs that are not finite, or far out, are no layout to keep or fit to (the

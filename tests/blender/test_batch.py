@@ -55,6 +55,7 @@ def test_one_obj_in_one_obj_out(tmp_path):
     assert entry["status"] == "ok" and entry["objects"] == 1 and entry["islands"] == 1
     assert entry["stretch_worst"] >= entry["stretch_mean"] >= 1.0 and entry["flipped"] == 0
     assert entry["overlapping"] == 0 and entry["warnings"] == [] and entry["seconds"] > 0
+    assert 0.1 < entry["coverage"] <= 1.0  # the share of the UV square the faces cover
 
 
 def test_many_files_and_formats_with_a_failure(tmp_path):
