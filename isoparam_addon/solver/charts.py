@@ -127,7 +127,7 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     seams = pairs(problem.seams)
     problem = replace(problem, vertices=V, faces=F)
     t_topology = time.perf_counter() - t0
-    with stage("charting", 0.03, 0.04):
+    with stage("finding the parts to chart", 0.03, 0.04):
         owners = _owners(problem, V, F, topo, options.chart_disks)
     if owners.graph is None:  # nothing to chart: the solve as without charts, topology reused
         with stage("", 0.03, 0.9):
@@ -146,9 +146,9 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
         face_tol=np.where(settle, min(options.refine_tol, _SETTLED), options.refine_tol),
         settle_above=np.where(settle, 4.0 + _DECIDING * (energy_budget(options.max_stretch) - 4.0), np.inf),
     )
-    with stage("charting", 0.04, 0.05):
+    with stage("cutting closed parts into cells", 0.04, 0.05):
         cells = _cell_boundaries(owners.graph, owners.face, owners.charted[owners.curved[owners.charted]])
-    with stage("charting", 0.05, 0.08):
+    with stage("slitting squeezed caps", 0.05, 0.08):
         slits, slit = _conformal_slits(problem, options, np.vstack([seams, cells]), owners)
     first = np.vstack([cells, slits])  # the cuts of the first solve
     with stage("charting", 0.08, 0.5):

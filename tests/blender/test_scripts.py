@@ -39,3 +39,16 @@ def test_the_paper_reproduction_runs(tmp_path):
 def test_the_comparison_with_blender_runs(tmp_path):
     out = _run("compare_blender.py", "--meshes", "peaks41", "--repeat", "1", "--out", tmp_path)
     assert "| isoparam | " in out and "| CONFORMAL | " in out
+
+
+def test_the_profile_charges_the_whole_solve_to_its_stages():
+    import re
+
+    for extra in ((), ("--operator",)):
+        out = _run("profile.py", "tests/data/spot.obj", *extra)
+        total = float(re.search(r"seams none: ([0-9.]+) s", out).group(1))
+        steps = out.split("| step (every solve) |")[1].split("\n\n")[0]
+        seconds = [float(m) for m in re.findall(r"^\| [^|]+ \| ([0-9.]+) \|", steps, re.M)]
+        assert "| refinement |" in steps and "| embedding |" in steps
+        # every second from the first report to the last belongs to a stage (none lost)
+        assert 0.8 * total <= sum(seconds) <= total + 0.01
