@@ -27,15 +27,22 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         name="Pack Shape",
         description="Island shape the packer fits together",
         items=(
+            (
+                "ISOPARAM",
+                "Fill Shapes",
+                "Isometric Unwrap's own packer: islands turned and fitted together by their shapes, small ones "
+                "into the holes left (Blender's Bounding Box where islands are pinned or at True World Scale)",
+            ),
             ("AABB", "Bounding Box", "Fast, as Unwrap packs"),
             ("CONVEX", "Convex Hull", "Tighter than boxes; on many islands it can take longer than Exact Shape"),
             ("CONCAVE", "Exact Shape", "Tightest; seconds on many islands"),
         ),
-        default="AABB",
+        default="ISOPARAM",
     )
     margin: FloatProperty(
         name="Margin",
-        description="Space between packed islands (Blender's scaled margin); unused when Margin (px) is set",
+        description="Space around every packed island, as a share of the UV square with Fill Shapes (Blender's "
+        "scaled margin with its shapes); unused when Margin (px) is set",
         default=0.001,
         min=0.0,
         max=1.0,

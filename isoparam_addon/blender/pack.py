@@ -89,7 +89,7 @@ def pack(context, solved, opts: OperatorOptions, pin: bool, kept: list[Kept]) ->
                 scale=not opts.world_scale,
                 pin=pin,
                 pin_method="LOCKED",
-                shape_method=opts.pack_shape,
+                shape_method=opts.blender_shape,
             )
     finally:
         if tool.use_uv_select_sync != sync_was:

@@ -17,6 +17,8 @@ import numpy as np
 
 from ..solver import Cancelled, InvalidMeshError, metrics, parametrize
 from ..solver.errors import counted
+from ..solver.packing import pack_layout
+from ..solver.progress import tracking
 from ..solver.uv_space import FAR_UV, place_in_uv_space
 from . import mesh_io
 from .messages import (
@@ -43,6 +45,7 @@ __all__ = [
 
 
 STRETCH_ATTRIBUTE = "isoparam_stretch"  # the face colour attribute Show Stretch writes
+FILL_SHAPES = "ISOPARAM"  # the Pack Shape that is isoparam's own packer (:mod:`..solver.packing`)
 
 
 @dataclass(frozen=True)
@@ -53,7 +56,7 @@ class OperatorOptions:
     to the paper's method alone, and :func:`_solve` maps these onto them."""
 
     pack: bool = True
-    pack_shape: str = "AABB"
+    pack_shape: str = "ISOPARAM"
     margin: float = 0.001
     margin_pixels: int = 0
     texture_size: int = 1024
@@ -73,6 +76,11 @@ class OperatorOptions:
         """The margin is given in pixels of the texture (Blender's pack margin method
         FRACTION: that share of the UV square around each island), not as Margin."""
         return self.margin_pixels > 0
+
+    @property
+    def blender_shape(self) -> str:
+        """The shape Blender's packer is given: Fill Shapes falls back to Bounding Box."""
+        return "AABB" if self.pack_shape == FILL_SHAPES else self.pack_shape
 
     @property
     def pack_margin(self) -> float:
@@ -144,6 +152,8 @@ class _Solved:
     corner_uv: np.ndarray
     held: np.ndarray
     n_islands: int
+    island: np.ndarray  # (t,) per unwrapped triangle
+    aspect: float | None
     distortion: np.ndarray  # (t,) per unwrapped triangle
     stretch: metrics.StretchSummary
     warnings: list
@@ -177,7 +187,7 @@ class Unwrap:
         self.fraction, self.stage = 0.0, "reading"
         self.wm = wm  # shows the progress as it goes (when solving in the main thread)
         self.started = time.perf_counter()
-        self.pack = self.held = self.far = False
+        self.pack = self.held = self.far = self.packed = False
         self.kept: list[Kept] = []
 
     def read(self) -> bool:
@@ -204,7 +214,7 @@ class Unwrap:
     def solve(self) -> bool:
         """Solve every mesh read (numpy only: any thread); False, with :attr:`error` or
         :attr:`cancelled` set, if one cannot be solved or a cancel was asked for."""
-        total = sum(len(i.sel.F) for i in self.inputs)
+        total = sum(len(i.sel.F) for i in self.inputs) / _SOLVING
         done = 0
         for inp in self.inputs:
             lo, share = done / total, len(inp.sel.F) / total
@@ -230,6 +240,16 @@ class Unwrap:
             self.record.solver.append(timings)
             self.solved.append(solved)
             done += len(inp.sel.F)
+        if _fills_shapes(self.solved, self.opts):
+            t = time.perf_counter()
+            try:
+                with tracking(lambda f, stage: self.progressed(_SOLVING + (1.0 - _SOLVING) * f, stage)):
+                    _pack_together(self.solved, self.opts)
+            except Cancelled:
+                self.cancelled = True
+                return False
+            self.record.pack = time.perf_counter() - t
+            self.packed = True
         return True
 
     def write(self) -> None:
@@ -248,7 +268,8 @@ class Unwrap:
         self.far = any(not (np.abs(s.corner_uv) <= FAR_UV).all() for s in solved)
         # a single island was fitted into the unit square by place_in_uv_space already
         # (Blender's pack would spend 0.17 s on it at 100k vertices)
-        self.pack = opts.pack and not self.far and (sum(s.n_islands for s in solved) > 1 or self.held)
+        several = sum(s.n_islands for s in solved) > 1 or self.held
+        self.pack = opts.pack and not self.packed and not self.far and several
         if self.pack:  # what the pack changes besides the UVs, kept while the mesh arrays are at hand
             reselects = not self.sync and SYNC_RESELECTS
             self.kept = prepare_pack(solved, self.objects, self.uv_selection_locks, reselects)
@@ -390,8 +411,52 @@ def _solve_one(inp: _Input, opts: OperatorOptions, progress) -> tuple[_Solved, o
         gone = {w.worded(mesh_names(sel)) for w in res.warnings if w.kind in OVERLAP_WARNINGS}
         warnings = [overlap] + [w for w in warnings if w not in gone]
     cuts = sel.vert_ids[res.cut_edges] if len(res.cut_edges) else np.zeros((0, 2), dtype=np.int64)
-    solved = _Solved(inp.obj, sel, uv, held, res.n_islands, per_face, summary, warnings, notes, details, cuts)
+    solved = _Solved(
+        inp.obj,
+        sel,
+        uv,
+        held,
+        res.n_islands,
+        res.face_island,
+        inp.aspect,
+        per_face,
+        summary,
+        warnings,
+        notes,
+        details,
+        cuts,
+    )
     return solved, res.timings
+
+
+_SOLVING = 0.95  # of the progress bar, when Fill Shapes packs after the solves
+
+
+def _fills_shapes(solved: list[_Solved], opts: OperatorOptions) -> bool:
+    """Whether isoparam's own packer packs (Fill Shapes), rather than Blender's: not with
+    pinned or locked islands (Blender's packer leaves them where they are), at True World
+    Scale, with UVs out of range, or for meshes whose images differ in aspect."""
+    if not (opts.pack and opts.pack_shape == FILL_SHAPES and not opts.world_scale):
+        return False
+    if any(s.held.any() or not (np.abs(s.corner_uv) <= FAR_UV).all() for s in solved):
+        return False
+    return len({s.aspect or 1.0 for s in solved}) == 1
+
+
+def _pack_together(solved: list[_Solved], opts: OperatorOptions) -> None:
+    """Pack the islands of every mesh solved together (:func:`.packing.pack_layout`), in
+    the shape of the image (``aspect``), and put the packed UVs in their place."""
+    offsets = np.cumsum([0] + [s.n_islands for s in solved])
+    packed = pack_layout(
+        np.concatenate([s.corner_uv for s in solved]),
+        np.concatenate([s.island + o for s, o in zip(solved, offsets)]),
+        int(offsets[-1]),
+        margin=opts.pack_margin,
+        aspect=solved[0].aspect or 1.0,
+    )
+    start = np.cumsum([0] + [len(s.corner_uv) for s in solved])
+    for s, a, b in zip(solved, start, start[1:]):
+        s.corner_uv = packed.uv[a:b]
 
 
 def _write(s: _Solved) -> None:

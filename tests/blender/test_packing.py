@@ -1,5 +1,6 @@
-"""What the pack gives an artist: margins in texture pixels, and the share of the texture
-the unwrap covers, said in the report (real bpy, Blender's packer)."""
+"""What the pack gives an artist: islands fitted by their shapes (Fill Shapes, the
+default), margins in texture pixels, and the share of the texture the unwrap covers, said
+in the report (real bpy; Blender's packer for its shapes and for pinned islands)."""
 
 import numpy as np
 import pytest
@@ -7,7 +8,8 @@ import pytest
 from isoparam_addon.blender import unwrap
 from isoparam_addon.solver import metrics
 from isoparam_eval import meshes as ex
-from isoparam_eval.blender import read_uvs
+from isoparam_eval.blender import corner_uvs, read_uvs, set_uvs_and_pins
+from isoparam_eval.layouts import islands_overlapping, least_gap
 
 from .conftest import add_mesh, bpy, edit, object_mode
 
@@ -34,16 +36,62 @@ def _boxes_apart(F, cuv) -> float:
     return min(gaps)
 
 
+@pytest.mark.parametrize("shape", ["ISOPARAM", "AABB"])
 @pytest.mark.parametrize("pixels, size", [(8, 256), (4, 2048)])
-def test_a_margin_in_pixels_keeps_islands_that_far_from_the_border_and_twice_from_each_other(scene, pixels, size):
-    V, F, _ = ex.load_obj(ex.SPOT)  # closed: four charts, packed by Blender's packer
-    Ft, cuv = _unwrapped(V, F, margin_pixels=pixels, texture_size=size)
+def test_a_margin_in_pixels_keeps_islands_that_far_from_the_border_and_twice_from_each_other(
+    scene, pixels, size, shape
+):
+    V, F, _ = ex.load_obj(ex.SPOT)  # closed: four charts
+    Ft, cuv = _unwrapped(V, F, margin_pixels=pixels, texture_size=size, pack_shape=shape)
     m = pixels / size
     p = cuv.reshape(-1, 2)
-    assert metrics.uv_islands(Ft, cuv).max() + 1 > 1
+    label = metrics.uv_islands(Ft, cuv)
+    assert label.max() + 1 > 1
     assert p.min() >= m - 1e-5 and p.max() <= 1 - m + 1e-5
     assert np.isclose(p.min(axis=0), m, atol=1e-4).any()  # (the margin, not more: the pack fills up to it)
-    assert _boxes_apart(Ft, cuv) >= 2 * m - 1e-5  # Bounding Box shape: boxes that far apart
+    if shape == "AABB":  # Blender's Bounding Box: boxes that far apart
+        assert _boxes_apart(Ft, cuv) >= 2 * m - 1e-5
+    else:  # Fill Shapes: the shapes that far apart (float32 UVs: 1e-5), boxes may interlock
+        assert islands_overlapping(cuv, label) == 0
+        assert least_gap(cuv, label, spacing=m / 2) >= 2 * m - 1e-5
+
+
+def test_fill_shapes_covers_more_than_bounding_box_and_says_so(scene):
+    V, F, _ = ex.load_obj(ex.SPOT)
+    cover = {}
+    for shape in ("AABB", "ISOPARAM"):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        Ft, cuv = _unwrapped(V, F, pack_shape=shape)
+        cover[shape] = metrics.coverage(cuv)
+        assert unwrap.last_run.coverage == pytest.approx(cover[shape], abs=1e-6)
+        assert islands_overlapping(cuv, metrics.uv_islands(Ft, cuv)) == 0
+    assert cover["ISOPARAM"] > 1.2 * cover["AABB"]
+
+
+def test_pinned_islands_stay_and_the_rest_is_packed_by_blenders_packer(scene):
+    # Fill Shapes packs everything anew: with an island pinned, Blender's packer (which
+    # leaves pinned islands where they are) packs instead
+    V, F, _ = ex.load_obj(ex.SPOT)
+    ob = add_mesh("m", V, F)
+    edit(ob)
+    assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
+    object_mode()
+    Ft, cuv = read_uvs(ob)
+    label = metrics.uv_islands(Ft, cuv)
+    me = ob.data
+    pins = np.zeros(len(me.loops), dtype=bool)
+    me.calc_loop_triangles()
+    tri = np.empty(3 * len(me.loop_triangles), np.int32)
+    me.loop_triangles.foreach_get("loops", tri)
+    pins[tri.reshape(-1, 3)[label == 0].ravel()] = True
+    set_uvs_and_pins(ob, corner_uvs(ob), pins)
+    before = cuv[label == 0]
+    edit(ob)
+    assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
+    object_mode()
+    _, after = read_uvs(ob)
+    assert np.allclose(after[label == 0], before, atol=1e-6)  # the pinned island stayed
+    assert unwrap.last_run.pack > 0
 
 
 def test_one_island_is_fitted_with_the_same_margin_in_pixels(scene):

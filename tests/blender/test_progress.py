@@ -69,7 +69,8 @@ def test_a_background_unwrap_writes_what_the_operator_writes(scene):
     assert watch.job.fraction == 1.0
     assert op.reports[0][1].startswith("Isometric Unwrap: ") and op.reports[0][0] == {"INFO"}
     object_mode()
-    assert np.array_equal(corner_uvs(ob), expected)
+    # (two solves of one mesh agree to ~1e-12, not bit for bit: measured 3e-12 on this box)
+    assert np.allclose(corner_uvs(ob), expected, rtol=0, atol=1e-6)
 
 
 def test_esc_while_it_solves_cancels_and_leaves_the_mesh_exactly_as_it_was(scene):

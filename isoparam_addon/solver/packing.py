@@ -1,0 +1,469 @@
+"""The packer: islands turned and fitted together into the UV square, holes filled, so that
+more of the texture's texels land on the model.
+
+1. Every island gets a few frames: the turn to its tightest box (the least-area bounding
+   rectangle, searched over angles), the turn to its smallest bounding square, and, for
+   the largest islands, turns in between.
+2. The largest islands (``_SHAPED``) are rasterized conservatively, grown by half the
+   margin, at a cell that puts about ``_CELLS`` cells along the side of their boxes' area.
+   They go in one at a time, largest first, each in the best of its frames and their four
+   quarter turns, at the free position that keeps the layout's bounding square smallest,
+   then its bounding box, then nearest the origin: the rule of xatlas's packer
+   (J. Young, ``xatlas``, ``PackCharts``). Where an island fits is one FFT correlation of
+   its cells with the cells taken, for every position and pose at once.
+3. The other islands go by their boxes (lying or standing), smallest last, on a grid
+   ``_FINER`` times finer, into the room left, holes first (summed-area tables, one per
+   run of boxes of one size).
+
+Islands end ``2 * margin`` apart at least: each is grown by half of it (its cells cover
+every point within that Chebyshev distance), and grown islands never share a cell. Pure
+numpy and ``scipy.fft``; the loops run once per large island and once per size of box.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.fft
+
+from . import progress
+from .geometry import TINY, corner_signed_areas
+from .islands import Islands
+from .placement import boxes
+
+__all__ = ["Packing", "pack_layout"]
+
+
+_CELLS = 200  # cells along the side of a square as large as the islands' boxes together
+_SHAPED = 24  # the largest islands, placed by their cells; the rest by their boxes
+_TURNED = 4  # the largest islands, tried in more frames (turns between the two boxes')
+_BETWEEN = 3  # turns of pi / 8 apart tried beyond the tightest box's
+_FINER = 2  # the boxes' grid: cells this many times finer
+_TIE = 1e-6  # relative differences below this are ties (decided by island number, or angle)
+_WORKERS = 2  # threads for the FFTs of many poses at once (results do not depend on it)
+_ANGLES = 16  # first search for the tightest box, over a quarter turn; then refined
+
+
+@dataclass(frozen=True)
+class Packing:
+    """A packed layout.
+
+    Attributes
+    ----------
+    uv : (t, 3, 2) float64
+        The corner UVs, in the unit square, ``margin`` from its sides.
+    cell : float
+        The raster's cell (the large islands'), as a share of the square's side.
+    shaped : int
+        Islands placed by their shapes (the rest by their boxes).
+    """
+
+    uv: np.ndarray
+    cell: float
+    shaped: int
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """Per island: the turn to its tightest box and the box, in layout units."""
+
+    angle: np.ndarray  # (n,)
+    lo: np.ndarray  # (n, 2), of the turned island
+    size: np.ndarray  # (n, 2)
+
+
+def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) -> Packing:
+    """The islands of the layout ``uv`` (t, 3, 2) (``island`` (t,) numbered below ``n``;
+    relative sizes are kept, positions and turns are not) packed into the unit square.
+
+    ``margin`` is the space kept around every island, as a share of the square's side:
+    islands end at least ``2 * margin`` apart and ``margin`` from the sides (Blender's
+    pack margin method FRACTION). ``aspect`` is the texture's width over its height: ``uv``
+    is then in texels' proportions scaled (u already divided by ``aspect``, as the
+    operator writes it), and the islands are packed in the texture's shape.
+    """
+    uv = np.asarray(uv, dtype=np.float64)
+    t = len(uv)
+    if not t:
+        return Packing(uv.copy(), 0.0, 0)
+    if not np.isfinite(uv).all():
+        raise ValueError("pack_layout: UVs that are not finite")
+    margin = float(min(max(margin, 0.0), 0.49))
+    order = np.argsort(island, kind="stable")
+    label = np.asarray(island, dtype=np.int64)[order]
+    pts = uv[order].copy()
+    pts[..., 0] *= aspect  # square texels
+    present, label = np.unique(label, return_inverse=True)
+    label = label.ravel()
+    k = len(present)
+    corners = Islands(np.repeat(label, 3), k)
+    flat = pts.reshape(-1, 2)
+    frames = list(_tightest_boxes(flat, corners))
+    frames += [_frame_at(flat, corners, frames[0].angle + j * np.pi / 8) for j in range(1, _BETWEEN + 1)]
+    area = float(np.abs(corner_signed_areas(pts)).sum())
+    boxes_area = float(np.prod(frames[0].size, axis=1).sum())
+    room = max(boxes_area, area, TINY)
+    cell = np.sqrt(room) / _CELLS
+    # the gap in layout units follows the side the layout ends up with: guessed, then
+    # checked against the side packed, and packed again wider if it was short
+    side = np.sqrt(room / 0.5) / (1.0 - 2.0 * margin)
+    with progress.stage("packing", 0.0, 1.0):
+        for _ in range(4):
+            gap = 2.0 * margin * side * max(aspect, 1.0)
+            placed, shaped = _pack_units(flat, corners, frames, cell, 0.5 * gap, aspect)
+            lo = placed.min(axis=0)
+            ext = placed.max(axis=0) - lo
+            side = max(ext[0] / aspect, ext[1], TINY) / (1.0 - 2.0 * margin)
+            if 2.0 * margin * side * max(aspect, 1.0) <= gap * (1 + 1e-9):
+                break
+            side *= 1.02
+        out = np.empty_like(flat)
+        out[:, 0] = margin + (placed[:, 0] - lo[0]) / (aspect * side)
+        out[:, 1] = margin + (placed[:, 1] - lo[1]) / side
+    result = np.empty_like(uv)
+    result[order] = out.reshape(-1, 3, 2)
+    return Packing(result, cell / side, shaped)
+
+
+# ---------------------------------------------------------------------------- boxes
+
+
+def _turn(points, groups: Islands, angle) -> np.ndarray:
+    """Rows of ``points`` (r, 2) turned clockwise by their island's ``angle``."""
+    c, s = groups.expand(np.cos(angle)), groups.expand(np.sin(angle))
+    x, y = points[:, 0], points[:, 1]
+    return np.stack([c * x + s * y, c * y - s * x], axis=1)
+
+
+def _box_sizes(points, groups: Islands, angle) -> np.ndarray:
+    lo, hi = boxes(_turn(points, groups, angle), groups)
+    return hi - lo
+
+
+def _frame_at(points, groups: Islands, angle) -> _Frame:
+    lo, hi = boxes(_turn(points, groups, angle), groups)
+    return _Frame(angle, lo, hi - lo)
+
+
+def _hull_candidates(points, groups: Islands) -> np.ndarray:
+    """Rows that may be corners of their island's convex hull: not strictly inside the
+    octagon through the island's extreme rows in eight directions (Akl and Toussaint's
+    filter); usually a small share of the rows."""
+    x, y = points[:, 0], points[:, 1]
+    keep = np.zeros(len(points), dtype=bool)
+    dirs = [(1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (-1.0, 1.0), (-1.0, 0.0), (-1.0, -1.0), (0.0, -1.0), (1.0, -1.0)]
+    extreme = []
+    for dx, dy in dirs:
+        proj = dx * x + dy * y
+        top = groups.max(proj)
+        at = proj >= groups.expand(top)
+        first = groups.first(at)
+        keep[first] = True
+        extreme.append(points[first])
+    inside = np.ones(len(points), dtype=bool)
+    for a, b in zip(extreme, extreme[1:] + extreme[:1]):
+        # the octagon runs counter-clockwise: inside is left of every edge a -> b
+        ea, eb = groups.expand(a), groups.expand(b)
+        cross = (eb[:, 0] - ea[:, 0]) * (y - ea[:, 1]) - (eb[:, 1] - ea[:, 1]) * (x - ea[:, 0])
+        same = groups.expand(np.all(a == b, axis=1))  # (merged corners: no edge)
+        inside &= (cross > 0) | same
+    return np.flatnonzero(keep | ~inside)
+
+
+def _tightest_boxes(points, groups: Islands) -> tuple[_Frame, _Frame]:
+    """Per island, two turns (within a quarter): the one whose bounding box has the least
+    area, and the one whose box has the shortest longer side (the smallest square around
+    the island). ``_ANGLES`` angles, then a finer search around each best; only rows that
+    may be on the convex hull are turned."""
+    rows = _hull_candidates(points, groups)
+    sub = Islands(groups.label[rows], groups.n)
+    pts = points[rows] - sub.expand(sub.mean(points[rows]))
+    n = groups.n
+    step = 0.5 * np.pi / _ANGLES
+    measures = (lambda s: s[:, 0] * s[:, 1], lambda s: s.max(axis=1))
+    best = [np.full(n, np.inf), np.full(n, np.inf)]
+    angle = [np.zeros(n), np.zeros(n)]
+
+    def consider(a, which):
+        a = np.broadcast_to(a, (n,))
+        size = _box_sizes(pts, sub, a)
+        for j in which:
+            value = measures[j](size)
+            better = value < best[j] * (1 - _TIE)
+            best[j] = np.where(better, value, best[j])
+            angle[j] = np.where(better, a, angle[j])
+
+    for a in np.arange(_ANGLES) * step:
+        consider(a, (0, 1))
+    for j in (0, 1):  # refine around each island's best
+        base = angle[j].copy()
+        for i in (-3, -2, -1, 1, 2, 3):
+            consider(base + i * step / 4, (j,))
+    frames = []
+    for a in angle:
+        lo, hi = boxes(_turn(points, groups, a), groups)
+        frames.append(_Frame(a, lo, hi - lo))
+    return frames[0], frames[1]
+
+
+# ---------------------------------------------------------------------------- units
+
+
+def _framed(flat, corners: Islands, frame: _Frame) -> np.ndarray:
+    return _turn(flat, corners, frame.angle) - corners.expand(frame.lo)
+
+
+def _pack_units(flat, corners: Islands, frames: list[_Frame], cell: float, pad: float, aspect: float):
+    """Place every island of the rows ``flat``, each grown by ``pad``; the rows where they
+    went (layout units) and the number of islands placed by their shapes."""
+    n, nf = corners.n, len(frames)
+    rank = np.empty(n, dtype=np.int64)
+    box = np.prod(frames[0].size, axis=1)
+    alike = np.round(box / max(float(box.max()) * _TIE, TINY))  # (islands alike up to rounding tie)
+    rank[np.lexsort((np.arange(n), -alike))] = np.arange(n)
+    shaped = rank < _SHAPED
+    n_shaped = int(shaped.sum())
+    by_rank = np.argsort(rank)[:n_shaped]
+    # the shapes: one per frame of each large island, numbered nf * rank + frame
+    tri_label = corners.label[::3]
+    pick = np.flatnonzero(shaped[tri_label])
+    r = rank[tri_label[pick]]
+    coords = np.concatenate([(_framed(flat, corners, f) + pad).reshape(-1, 3, 2)[pick] for f in frames])
+    masks, dims = _rasterize(coords, np.concatenate([nf * r + f for f in range(nf)]), nf * n_shaped, cell, pad)
+    grid, ex, ey, where, shape, turn = _place(masks, _choices(frames, by_rank, nf), aspect)
+    # the small islands' boxes, on a finer grid (closed: a side on a cell's edge takes the next)
+    fine = cell / _FINER
+    small = np.flatnonzero(~shaped)
+    box_cells = np.floor((frames[0].size + 2.0 * pad) / fine).astype(np.int64) + 1
+    small = small[np.lexsort((small, box_cells[small, 1], box_cells[small, 0], -np.prod(box_cells[small], axis=1)))]
+    if len(small):
+        grid = np.repeat(np.repeat(grid > 0, _FINER, axis=0), _FINER, axis=1)
+        box_where, box_turn = _place_boxes(grid, ex * _FINER, ey * _FINER, box_cells[small], aspect)
+    # per island: its frame, its cells' extent and lower-left corner (layout units), turn
+    extent = np.zeros((n, 2))
+    at = np.zeros((n, 2))
+    q = np.zeros(n, dtype=np.int64)
+    which = np.zeros(n, dtype=np.int64)
+    extent[by_rank], at[by_rank], q[by_rank], which[by_rank] = dims[shape] * cell, where * cell, turn, shape % nf
+    if len(small):
+        extent[small], at[small], q[small] = box_cells[small] * fine, box_where * fine, box_turn
+    chosen = _Frame(
+        np.choose(which, [f.angle for f in frames]),
+        np.stack([np.choose(which, [f.lo[:, c] for f in frames]) for c in range(2)], axis=1),
+        np.zeros((n, 2)),
+    )
+    local = _framed(flat, corners, chosen) + pad
+    W, H = corners.expand(extent[:, 0]), corners.expand(extent[:, 1])
+    x, y, qr = local[:, 0], local[:, 1], corners.expand(q)
+    px = np.select([qr == 1, qr == 2, qr == 3], [H - y, W - x, y], x)
+    py = np.select([qr == 1, qr == 2, qr == 3], [x, H - y, W - x], y)
+    return np.stack([px, py], axis=1) + corners.expand(at), n_shaped
+
+
+def _choices(frames: list[_Frame], by_rank: np.ndarray, nf: int) -> list[list[int]]:
+    """The shapes (numbered ``nf * rank + frame``) tried for each large island, by rank:
+    every frame for the ``_TURNED`` largest, the first two for the rest, less the frames a
+    quarter turn (or none) from an earlier one."""
+    angles = np.stack([f.angle[by_rank] for f in frames], axis=1)
+    apart = (angles[:, :, None] - angles[:, None, :]) / (0.5 * np.pi)
+    repeat = (np.abs(apart - np.round(apart)) < 1e-9) & np.tril(np.ones((nf, nf), dtype=bool), -1)[None]
+    return [
+        [nf * j + f for f in range(nf if j < _TURNED else min(nf, 2)) if not repeat[j, f].any()]
+        for j in range(len(by_rank))
+    ]
+
+
+# ---------------------------------------------------------------------------- raster
+
+
+def _rasterize(tri, unit, n_units: int, cell: float, pad: float = 0.0):
+    """Every unit's cells within Chebyshev distance ``pad`` of its triangles ``tri``
+    (t, 3, 2), coordinates >= ``pad``: a bool mask (rows y, columns x) per unit, and the
+    masks' (columns, rows) (k, 2).
+
+    Conservative: a cell is marked when the closed triangle meets the closed cell grown by
+    ``pad`` (separating axes: the box's two and the triangle's three edge normals, with a
+    tolerance of 1e-9 cell), so every point within ``pad`` of an island lies in a marked
+    cell. The triangles are tested in groups of one box size (in cells), each group one
+    broadcast."""
+    p = tri / cell
+    grow = pad / cell
+    lo_c = np.maximum(np.floor(np.minimum(np.minimum(p[:, 0], p[:, 1]), p[:, 2]) - grow), 0).astype(np.int64)
+    hi_c = np.floor(np.maximum(np.maximum(p[:, 0], p[:, 1]), p[:, 2]) + grow).astype(np.int64)
+    dims = np.zeros((n_units, 2), dtype=np.int64)
+    np.maximum.at(dims, unit, hi_c + 1)
+    start = np.zeros(n_units + 1, dtype=np.int64)
+    start[1:] = np.cumsum(dims[:, 0] * dims[:, 1])
+    buffer = np.zeros(int(start[-1]), dtype=bool)
+    base = start[unit] + lo_c[:, 1] * dims[unit, 0] + lo_c[:, 0]  # each box's first cell
+    span = hi_c - lo_c + 1
+    one = (span == 1).all(axis=1)
+    buffer[base[one]] = True  # a triangle within one cell marks it
+    # per triangle and edge, the outward normal n (in cells) and the bound on n . c for
+    # the centre c of a cell the edge's closed half-plane meets (grown cell: half 0.5 + grow)
+    nx = np.roll(p[:, :, 1], -1, axis=1) - p[:, :, 1]
+    ny = p[:, :, 0] - np.roll(p[:, :, 0], -1, axis=1)
+    flip = np.where(corner_signed_areas(p) < 0, -1.0, 1.0)[:, None]
+    nx, ny = nx * flip, ny * flip
+    reach = (0.5 + grow) * (np.abs(nx) + np.abs(ny))
+    bound = nx * p[:, :, 0] + ny * p[:, :, 1] + reach * (1 + 1e-9) + 1e-9
+    rest = np.flatnonzero(~one)
+    key = span[rest, 0] * (int(span[:, 1].max(initial=1)) + 1) + span[rest, 1]
+    sizes, group = np.unique(key, return_inverse=True)
+    group = group.ravel()
+    by_group = np.argsort(group, kind="stable")
+    cut = np.searchsorted(group[by_group], np.arange(len(sizes) + 1))
+    for g in range(len(sizes)):  # one broadcast per box size
+        tris = rest[by_group[cut[g] : cut[g + 1]]]
+        sx, sy = int(span[tris[0], 0]), int(span[tris[0], 1])
+        cx = lo_c[tris, 0][:, None, None] + 0.5 + np.arange(sx)[None, None, :]
+        cy = lo_c[tris, 1][:, None, None] + 0.5 + np.arange(sy)[None, :, None]
+        keep = np.ones((len(tris), sy, sx), dtype=bool)
+        for e in range(3):
+            keep &= nx[tris, e][:, None, None] * cx + ny[tris, e][:, None, None] * cy <= bound[tris, e][:, None, None]
+        t_i, yy, xx = np.nonzero(keep)
+        tt = tris[t_i]
+        buffer[base[tt] + yy * dims[unit[tt], 0] + xx] = True
+    masks = [buffer[start[i] : start[i + 1]].reshape(dims[i, 1], dims[i, 0]) for i in range(n_units)]
+    return masks, dims
+
+
+def _turned_masks(mask: np.ndarray) -> list[np.ndarray]:
+    """The mask's four quarter turns counter-clockwise (x right, y up), as the rows move in
+    :func:`_pack_units`."""
+    return [mask, mask.T[:, ::-1], mask[::-1, ::-1], mask.T[::-1, :]]
+
+
+def _room(grid: np.ndarray, need: int) -> np.ndarray:
+    """``grid``, made at least ``need`` cells square (twice that, when it must grow)."""
+    if need <= min(grid.shape):
+        return grid
+    bigger = np.zeros((2 * need, 2 * need), dtype=grid.dtype)
+    bigger[: grid.shape[0], : grid.shape[1]] = grid
+    return bigger
+
+
+def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float):
+    """Place the units, largest first, each in the best of its shapes (``choices``: mask
+    numbers per unit) and their quarter turns. Returns the grid of cells taken, the cells
+    the units span (columns, rows), and per unit its mask's lower-left cell (k, 2), the
+    shape chosen (k,) and its quarter turn (k,)."""
+    k = len(choices)
+    cells = np.array([masks[c[0]].sum() for c in choices])
+    order = np.lexsort((np.arange(k), -cells))
+    where = np.zeros((k, 2), dtype=np.int64)
+    shape = np.zeros(k, dtype=np.int64)
+    turn = np.zeros(k, dtype=np.int64)
+    biggest = max((max(masks[c].shape) for c in range(len(masks))), default=1)
+    side = int(np.ceil(np.sqrt(sum(masks[c[0]].size for c in choices)) * 1.6)) + biggest
+    grid = np.zeros((side, side), dtype=np.float32)
+    ex = ey = 0  # the cells taken so far lie in [0, ex) x [0, ey)
+    for done, u in enumerate(order):
+        progress.tick(done / max(k, 1))
+        poses = [(c, q, m) for c in choices[u] for q, m in enumerate(_turned_masks(masks[c]))]
+        reach = max(max(masks[c].shape) for c in choices[u])
+        grid = _room(grid, max(ex, ey) + reach)
+        ax, ay = min(ex + reach, grid.shape[1]), min(ey + reach, grid.shape[0])
+        i, x, y = _best_position(grid[:ay, :ax], [m for _, _, m in poses], ex, ey, aspect)
+        c, q, m = poses[i]
+        h, w = m.shape
+        grid[y : y + h, x : x + w] += m
+        ex, ey = max(ex, x + w), max(ey, y + h)
+        where[u], shape[u], turn[u] = (x, y), c, q
+    return grid, ex, ey, where, shape, turn
+
+
+def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: float):
+    """Boxes of ``cells`` (k, 2) (columns, rows; boxes of one size next to each other)
+    placed one by one, in order, lying or standing, at the free position (``grid``'s cells
+    taken) that keeps the bounding square smallest, then nearest the origin, as
+    :func:`_place` does. Returns per box its lower-left cell (k, 2) and quarter turn (0 or
+    1).
+
+    Where a box fits is read off a summed-area table of the cells taken, made once per run
+    of boxes of one size; each box placed then rules out the positions it covers."""
+    k = len(cells)
+    where = np.zeros((k, 2), dtype=np.int64)
+    turn = np.zeros(k, dtype=np.int64)
+    i = 0
+    while i < k:
+        progress.tick(i / max(k, 1))
+        w0, h0 = int(cells[i, 0]), int(cells[i, 1])
+        run_end = i + 1
+        while run_end < k and (cells[run_end] == cells[i]).all():
+            run_end += 1
+        reach = max(w0, h0)
+        grid = _room(grid, max(ex, ey) + reach)
+        ax, ay = min(ex + reach, grid.shape[1]), min(ey + reach, grid.shape[0])
+        table = np.zeros((ay + 1, ax + 1), dtype=np.int32)
+        np.cumsum(np.cumsum(grid[:ay, :ax], axis=0, dtype=np.int32), axis=1, out=table[1:, 1:])
+        shapes = [(w0, h0)] if w0 == h0 else [(w0, h0), (h0, w0)]
+        free = [table[h:, w:] - table[:-h, w:] - table[h:, :-w] + table[:-h, :-w] == 0 for w, h in shapes]
+        grown = False
+        while i < run_end and not grown:
+            q, x, y = _best_box(free, shapes, ex, ey, aspect)
+            w, h = shapes[q]
+            grid[y : y + h, x : x + w] = True
+            for (w2, h2), f in zip(shapes, free):  # the positions that now overlap it
+                f[max(y - h2 + 1, 0) : y + h, max(x - w2 + 1, 0) : x + w] = False
+            grown = x + w > ex or y + h > ey
+            ex, ey = max(ex, x + w), max(ey, y + h)
+            where[i], turn[i] = (x, y), q
+            i += 1
+    return where, turn
+
+
+def _best_box(free: list[np.ndarray], shapes, ex: int, ey: int, aspect: float):
+    """The turn and lower-left cell of the best position among ``free`` (one map of free
+    lower-left cells per shape (columns, rows)): within the cells spanned so far if any,
+    the one nearest the origin (least ``max(x, y)``, then lowest, then leftmost); else
+    the smallest bounding square, then the smallest bounding box, then nearest the
+    origin."""
+    best = None
+    for q, ((w, h), f) in enumerate(zip(shapes, free)):
+        inner = f[: max(ey - h + 1, 0), : max(ex - w + 1, 0)]
+        if inner.size and (first := inner.argmax(axis=1))[(rows := inner.any(axis=1))].size:
+            # along a row max(x, y) grows with x: each row's best is its first free cell
+            y = np.flatnonzero(rows)
+            x = first[y]
+            j = np.lexsort((x, y, np.maximum(x, y)))[0]
+            cand = ((0.0, max(x[j], y[j]), y[j], x[j]), q, int(x[j]), int(y[j]))
+        else:
+            ys, xs = np.nonzero(f)
+            if not len(ys):
+                continue
+            wide, high = np.maximum(ex, xs + w), np.maximum(ey, ys + h)
+            square = np.maximum(wide / aspect, high)
+            metric = square * square + wide * high / aspect
+            tied = np.flatnonzero(metric == metric.min())
+            j = tied[np.lexsort((xs[tied], ys[tied], np.maximum(xs[tied], ys[tied])))[0]]
+            cand = ((1.0 + float(metric[j]), max(xs[j], ys[j]), ys[j], xs[j]), q, int(xs[j]), int(ys[j]))
+        if best is None or cand[0] < best[0]:
+            best = cand
+    if best is None:  # (positions beside the cells taken are always free)
+        raise AssertionError("packing: no free position")
+    return best[1], best[2], best[3]
+
+
+def _best_position(region: np.ndarray, poses: list[np.ndarray], ex: int, ey: int, aspect: float):
+    """The pose (index into ``poses``, masks) and lower-left cell of the best free
+    position in ``region`` (cells taken > 0): the one that leaves the smallest bounding
+    square, then the smallest bounding box, then the one nearest the origin. One FFT of
+    the region, one of all the poses and one back, for every position at once."""
+    ay, ax = region.shape
+    fits = [i for i, m in enumerate(poses) if m.shape[0] <= ay and m.shape[1] <= ax]
+    if not region.any():
+        free = [np.ones((ay - poses[i].shape[0] + 1, ax - poses[i].shape[1] + 1), dtype=bool) for i in fits]
+    else:
+        shape = (scipy.fft.next_fast_len(ay, real=True), scipy.fft.next_fast_len(ax, real=True))
+        stack = np.zeros((len(fits), *shape), dtype=np.float32)
+        for j, i in enumerate(fits):
+            stack[j, : poses[i].shape[0], : poses[i].shape[1]] = poses[i]
+        spectra = np.conj(scipy.fft.rfft2(stack, workers=_WORKERS))
+        spectra *= scipy.fft.rfft2(region, s=shape)[None]
+        hits = scipy.fft.irfft2(spectra, s=shape, workers=_WORKERS)
+        free = [hits[j, : ay - poses[i].shape[0] + 1, : ax - poses[i].shape[1] + 1] < 0.5 for j, i in enumerate(fits)]
+    shapes = [poses[i].shape[::-1] for i in fits]
+    q, x, y = _best_box(free, shapes, ex, ey, aspect)
+    return fits[q], x, y

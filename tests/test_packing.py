@@ -1,0 +1,156 @@
+"""The packer (Fill Shapes): islands moved rigidly, at one common scale, into the unit
+square; never closer than the margin; denser than shelves of boxes; deterministic."""
+
+import numpy as np
+import pytest
+
+from isoparam_addon.solver import Cancelled, metrics, packing, parametrize
+from isoparam_addon.solver.progress import tracking
+from isoparam_addon.solver.uv_space import place_in_uv_space
+from isoparam_eval import meshes as ex
+from isoparam_eval.layouts import islands_overlapping, least_gap
+
+
+@pytest.fixture(scope="module")
+def spot_charts():
+    """Spot with charts: a closed mesh cut into a few large islands (the operator's case)."""
+    V, F, _ = ex.load_obj(ex.SPOT)
+    res = parametrize(V, F, charts=True, refine=100)
+    return res.corner_uv, res.face_island, res.n_islands
+
+
+def _many_islands(k: int = 600, seed: int = 0):
+    """``k`` islands of one to four triangles, sizes over three orders of magnitude, some
+    long and thin, lying across each other (the packer ignores where they are)."""
+    rng = np.random.default_rng(seed)
+    tris, label = [], []
+    for i in range(k):
+        size = 10.0 ** rng.uniform(-2, 1)
+        stretch = rng.choice([1.0, 1.0, 6.0])
+        at = rng.uniform(-5, 5, 2)
+        for _ in range(rng.integers(1, 5)):
+            tri = rng.uniform(0, 1, (3, 2)) * [size * stretch, size] + at
+            if metrics.corner_signed_areas(tri[None])[0] < 0:
+                tri = tri[::-1]
+            tris.append(tri)
+            label.append(i)
+    return np.array(tris), np.array(label), k
+
+
+def _edge_lengths(uv):
+    return np.linalg.norm(uv - np.roll(uv, 1, axis=1), axis=2)
+
+
+def test_islands_move_rigidly_at_one_common_scale(spot_charts):
+    uv, island, n = spot_charts
+    out = packing.pack_layout(uv, island, n, margin=0.002).uv
+    ratio = _edge_lengths(out) / _edge_lengths(uv)
+    assert np.allclose(ratio, np.median(ratio), rtol=1e-9)  # one scale, every island
+    before, after = metrics.corner_signed_areas(uv), metrics.corner_signed_areas(out)
+    assert (np.sign(before) == np.sign(after)).all()  # turned, never mirrored
+    assert n > 2 and len(np.unique(island)) == n
+
+
+@pytest.mark.parametrize("margin", [0.0, 0.002, 4 / 1024, 0.03])
+def test_islands_end_inside_the_square_and_at_least_twice_the_margin_apart(spot_charts, margin):
+    uv, island, n = spot_charts
+    out = packing.pack_layout(uv, island, n, margin=margin).uv
+    p = out.reshape(-1, 2)
+    assert p.min() >= margin - 1e-12 and p.max() <= 1 - margin + 1e-12
+    assert np.isclose(p.min(axis=0), margin).all()  # the layout starts at the margin
+    assert np.isclose(p.max(axis=0), 1 - margin).any()  # and fills the square to it
+    assert islands_overlapping(out, island) == 0
+    if margin > 0:
+        assert least_gap(out, island, spacing=margin / 2) >= 2 * margin * (1 - 1e-9)
+
+
+def test_many_small_islands_are_packed_apart_by_their_boxes():
+    uv, island, n = _many_islands()
+    res = packing.pack_layout(uv, island, n, margin=0.001)
+    out = res.uv
+    assert res.shaped < n  # most went by their boxes
+    assert out.min() >= 0.001 - 1e-12 and out.max() <= 0.999 + 1e-12
+    assert islands_overlapping(out, island) == 0
+    assert least_gap(out, island, spacing=0.0005) >= 0.002 * (1 - 1e-9)
+    ratio = _edge_lengths(out) / _edge_lengths(uv)
+    assert np.allclose(ratio, np.median(ratio), rtol=1e-9)
+
+
+def test_it_covers_more_than_shelves_of_boxes(spot_charts):
+    # the solver's own placement (the islands in their canonical frame, on shelves) is
+    # what Blender's Bounding Box pack gives, give or take: Fill Shapes must beat it clearly
+    uv, island, n = spot_charts
+    t = len(uv)
+    shelved, _ = place_in_uv_space(
+        uv, island, n, locked=np.zeros((t, 3), bool), old=np.zeros((t, 3, 2)), in_place=False, world_scale=False
+    )
+    filled = packing.pack_layout(uv, island, n, margin=0.0).uv
+    assert metrics.coverage(filled) > 1.2 * metrics.coverage(shelved)
+    many, label, k = _many_islands()
+    assert metrics.coverage(packing.pack_layout(many, label, k).uv) > 0.5
+
+
+def test_a_wide_texture_gets_a_wide_layout_with_square_texels(spot_charts):
+    uv, island, n = spot_charts
+    wide = uv.copy()
+    wide[..., 0] /= 2.0  # as the operator gives it for a 2:1 image: u divided by the aspect
+    out = packing.pack_layout(wide, island, n, margin=0.01, aspect=2.0).uv
+    assert out.min() >= 0.01 - 1e-12 and out.max() <= 0.99 + 1e-12
+    texels = out.copy()
+    texels[..., 0] *= 2.0  # in the image's pixels: rigid, one scale
+    ratio = _edge_lengths(texels) / _edge_lengths(uv)
+    assert np.allclose(ratio, np.median(ratio), rtol=1e-9)
+
+
+def test_odd_islands_one_island_a_point_and_gaps_in_the_numbering(spot_charts):
+    uv, island, n = spot_charts
+    one = packing.pack_layout(uv[island == 0], np.zeros(int((island == 0).sum()), dtype=np.int64), 1).uv
+    assert np.isclose(one.reshape(-1, 2).max(axis=0), 1.0).any() and one.min() >= 0
+    point = np.zeros((1, 3, 2))  # an island of no area
+    both = packing.pack_layout(np.concatenate([uv, point + 3.0]), np.append(island * 2, 2 * n + 5), 2 * n + 6).uv
+    assert np.isfinite(both).all() and both.min() >= 0 and both.max() <= 1
+    assert islands_overlapping(both[:-1], island) == 0
+    assert packing.pack_layout(np.zeros((0, 3, 2)), np.zeros(0, dtype=np.int64), 0).uv.shape == (0, 3, 2)
+    with pytest.raises(ValueError, match="not finite"):
+        packing.pack_layout(np.full((1, 3, 2), np.nan), np.zeros(1, dtype=np.int64), 1)
+
+
+def test_the_packing_does_not_depend_on_fft_threads_or_on_the_run(spot_charts, monkeypatch):
+    uv, island, n = spot_charts
+    first = packing.pack_layout(uv, island, n, margin=0.002).uv
+    monkeypatch.setattr(packing, "_WORKERS", 1)
+    assert np.array_equal(packing.pack_layout(uv, island, n, margin=0.002).uv, first)
+    # rounding in the input (another BLAS, another thread count) moves it by rounding only
+    nudged = packing.pack_layout(uv * (1 + 1e-13), island, n, margin=0.002).uv
+    assert np.abs(nudged - first).max() < 1e-9
+
+
+def test_a_cancel_stops_the_packing():
+    uv, island, n = _many_islands(200)
+    seen = []
+
+    def stop(fraction, stage):
+        seen.append(stage)
+        return stage != "packing"
+
+    with pytest.raises(Cancelled), tracking(stop):
+        packing.pack_layout(uv, island, n)
+    assert seen[-1] == "packing"
+
+
+def test_islands_alike_are_packed_alike_whatever_the_rounding(spot_charts):
+    # 30 copies of one island (every other one a quarter turn round, exactly): which go
+    # first, which are placed by their shapes (the largest 24) and how each is turned
+    # must not follow rounding noise (another BLAS or thread count moves a layout by
+    # ~1e-12), or the copies trade places
+    uv, island, n = spot_charts
+    smallest = np.argmin(np.bincount(island, minlength=n))
+    one = uv[island == smallest]
+    turned = np.stack([-one[..., 1], one[..., 0]], axis=-1)
+    copies = np.concatenate([(turned if k % 2 else one) + 10.0 * k for k in range(30)])
+    label = np.repeat(np.arange(30), len(one))
+    first = packing.pack_layout(copies, label, 30, margin=0.002).uv
+    rng = np.random.default_rng(1)
+    for _ in range(4):
+        nudged = copies * (1 + 1e-12 * rng.standard_normal()) + 1e-13 * rng.standard_normal(copies.shape)
+        assert np.abs(packing.pack_layout(nudged, label, 30, margin=0.002).uv - first).max() < 1e-9
