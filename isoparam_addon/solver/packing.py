@@ -41,6 +41,7 @@ _TURNED = 4  # the largest islands, tried in more frames (turns between the two 
 _BETWEEN = 3  # turns of pi / 8 apart tried beyond the tightest box's
 _FINER = 2  # the boxes' grid: cells this many times finer
 _TIE = 1e-6  # relative differences below this are ties (decided by island number, or angle)
+_RULES = ("square", "corner")  # the placement rules tried (:func:`_best_box`)
 _WORKERS = 2  # threads for the FFTs of many poses at once (results do not depend on it)
 _ANGLES = 16  # first search for the tightest box, over a quarter turn; then refined
 
@@ -112,6 +113,7 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
         for _ in range(4):
             gap = 2.0 * margin * side * max(aspect, 1.0)
             placed, shaped = _pack_units(flat, corners, frames, cell, 0.5 * gap, aspect)
+            placed = _squarest(placed, aspect)
             lo = placed.min(axis=0)
             ext = placed.max(axis=0) - lo
             side = max(ext[0] / aspect, ext[1], TINY) / (1.0 - 2.0 * margin)
@@ -124,6 +126,33 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
     result = np.empty_like(uv)
     result[order] = out.reshape(-1, 3, 2)
     return Packing(result, cell / side, shaped)
+
+
+def _squarest(points: np.ndarray, aspect: float) -> np.ndarray:
+    """The packed layout ``points`` (r, 2) turned as one (rigidly: nothing moves apart or
+    together) to the angle whose bounding box, in the texture's shape, is smallest; kept as
+    it is unless that saves more than a tie. Packed along the axes, a layout often leaves
+    its corners empty: turned, its square shrinks (Blender's packer turns its first
+    islands as a group this way, ``rotate_inside_square``)."""
+    whole = Islands(np.zeros(len(points), dtype=np.int64), 1)
+    hull = points[_hull_candidates(points, whole)]
+    hull = hull - hull.mean(axis=0)
+
+    def side(angle):
+        c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+        u = c * hull[None, :, 0] + s * hull[None, :, 1]
+        v = c * hull[None, :, 1] - s * hull[None, :, 0]
+        return np.maximum(np.ptp(u, axis=1) / aspect, np.ptp(v, axis=1))
+
+    step = 0.5 * np.pi / 64
+    angles = np.arange(64) * step
+    best = angles[int(np.argmin(side(angles)))]
+    fine = best + np.linspace(-step, step, 17)
+    best = fine[int(np.argmin(side(fine)))]
+    if side(np.array([best]))[0] >= side(np.zeros(1))[0] * (1 - _TIE):
+        return points
+    c, s = np.cos(best), np.sin(best)
+    return np.stack([c * points[:, 0] + s * points[:, 1], c * points[:, 1] - s * points[:, 0]], axis=1)
 
 
 # ---------------------------------------------------------------------------- boxes
@@ -231,15 +260,15 @@ def _pack_units(flat, corners: Islands, frames: list[_Frame], cell: float, pad: 
     r = rank[tri_label[pick]]
     coords = np.concatenate([(_framed(flat, corners, f) + pad).reshape(-1, 3, 2)[pick] for f in frames])
     masks, dims = _rasterize(coords, np.concatenate([nf * r + f for f in range(nf)]), nf * n_shaped, cell, pad)
-    grid, ex, ey, where, shape, turn = _place(masks, _choices(frames, by_rank, nf), aspect)
     # the small islands' boxes, on a finer grid (closed: a side on a cell's edge takes the next)
     fine = cell / _FINER
     small = np.flatnonzero(~shaped)
     box_cells = np.floor((frames[0].size + 2.0 * pad) / fine).astype(np.int64) + 1
-    small = small[np.lexsort((small, box_cells[small, 1], box_cells[small, 0], -np.prod(box_cells[small], axis=1)))]
-    if len(small):
-        grid = np.repeat(np.repeat(grid > 0, _FINER, axis=0), _FINER, axis=1)
-        box_where, box_turn = _place_boxes(grid, ex * _FINER, ey * _FINER, box_cells[small], aspect)
+    lying = np.sort(box_cells, axis=1)[:, ::-1]  # (long, short): one run per size, either way up
+    standing = box_cells[:, 1] > box_cells[:, 0]
+    small = small[np.lexsort((small, lying[small, 1], lying[small, 0], -np.prod(lying[small], axis=1)))]
+    where, shape, turn, box_where, box_turn = _best_of_rules(masks, _choices(frames, by_rank, nf), lying[small], aspect)
+    box_turn ^= standing[small]
     # per island: its frame, its cells' extent and lower-left corner (layout units), turn
     extent = np.zeros((n, 2))
     at = np.zeros((n, 2))
@@ -259,6 +288,27 @@ def _pack_units(flat, corners: Islands, frames: list[_Frame], cell: float, pad: 
     px = np.select([qr == 1, qr == 2, qr == 3], [H - y, W - x, y], x)
     py = np.select([qr == 1, qr == 2, qr == 3], [x, H - y, W - x], y)
     return np.stack([px, py], axis=1) + corners.expand(at), n_shaped
+
+
+def _best_of_rules(masks, choices, boxes_lying: np.ndarray, aspect: float):
+    """The large islands (``masks``, ``choices`` as :func:`_place` takes them), then the
+    small ones' boxes (``boxes_lying``: columns >= rows), placed by each rule of
+    ``_RULES``: the greedy placement is short-sighted, so the rule that leaves the smaller
+    square is kept (the first on a tie). Returns the large islands' cells, shapes and
+    turns, and the boxes' cells (on the grid ``_FINER`` times finer) and turns."""
+    best: tuple | None = None
+    for rule in _RULES:
+        grid, ex, ey, where, shape, turn = _place(masks, choices, aspect, rule)
+        box_where, box_turn = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
+        ex, ey = ex * _FINER, ey * _FINER
+        if len(boxes_lying):
+            grid = np.repeat(np.repeat(grid > 0, _FINER, axis=0), _FINER, axis=1)
+            box_where, box_turn, ex, ey = _place_boxes(grid, ex, ey, boxes_lying, aspect, rule)
+        square = (max(ex / aspect, ey), ex * ey)
+        if best is None or square < best[0]:
+            best = (square, where, shape, turn, box_where, box_turn)
+    assert best is not None
+    return best[1:]
 
 
 def _choices(frames: list[_Frame], by_rank: np.ndarray, nf: int) -> list[list[int]]:
@@ -344,7 +394,7 @@ def _room(grid: np.ndarray, need: int) -> np.ndarray:
     return bigger
 
 
-def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float):
+def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float, rule: str):
     """Place the units, largest first, each in the best of its shapes (``choices``: mask
     numbers per unit) and their quarter turns. Returns the grid of cells taken, the cells
     the units span (columns, rows), and per unit its mask's lower-left cell (k, 2), the
@@ -365,7 +415,7 @@ def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float):
         reach = max(max(masks[c].shape) for c in choices[u])
         grid = _room(grid, max(ex, ey) + reach)
         ax, ay = min(ex + reach, grid.shape[1]), min(ey + reach, grid.shape[0])
-        i, x, y = _best_position(grid[:ay, :ax], [m for _, _, m in poses], ex, ey, aspect)
+        i, x, y = _best_position(grid[:ay, :ax], [m for _, _, m in poses], ex, ey, aspect, rule)
         c, q, m = poses[i]
         h, w = m.shape
         grid[y : y + h, x : x + w] += m
@@ -374,7 +424,7 @@ def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float):
     return grid, ex, ey, where, shape, turn
 
 
-def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: float):
+def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: float, rule: str):
     """Boxes of ``cells`` (k, 2) (columns, rows; boxes of one size next to each other)
     placed one by one, in order, lying or standing, at the free position (``grid``'s cells
     taken) that keeps the bounding square smallest, then nearest the origin, as
@@ -402,7 +452,7 @@ def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: 
         free = [table[h:, w:] - table[:-h, w:] - table[h:, :-w] + table[:-h, :-w] == 0 for w, h in shapes]
         grown = False
         while i < run_end and not grown:
-            q, x, y = _best_box(free, shapes, ex, ey, aspect)
+            q, x, y = _best_box(free, shapes, ex, ey, aspect, rule)
             w, h = shapes[q]
             grid[y : y + h, x : x + w] = True
             for (w2, h2), f in zip(shapes, free):  # the positions that now overlap it
@@ -411,59 +461,71 @@ def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: 
             ex, ey = max(ex, x + w), max(ey, y + h)
             where[i], turn[i] = (x, y), q
             i += 1
-    return where, turn
+    return where, turn, ex, ey
 
 
-def _best_box(free: list[np.ndarray], shapes, ex: int, ey: int, aspect: float):
+def _best_box(free: list[np.ndarray], shapes, ex: int, ey: int, aspect: float, rule: str):
     """The turn and lower-left cell of the best position among ``free`` (one map of free
-    lower-left cells per shape (columns, rows)): within the cells spanned so far if any,
-    the one nearest the origin (least ``max(x, y)``, then lowest, then leftmost); else
-    the smallest bounding square, then the smallest bounding box, then nearest the
-    origin."""
+    lower-left cells per shape (columns, rows)), by ``rule``:
+
+    - ``"square"`` (xatlas's): the position that leaves the smallest bounding square, then
+      the smallest bounding box; within the cells spanned so far (all alike by that), the
+      one whose lower-left cell is nearest the origin (least ``max(x, y)``);
+    - ``"corner"`` (Blender's ``find_best_fit_for_island``): the position whose upper-right
+      corner is nearest the origin (least ``max(x + w, y + h)``), whatever the square.
+
+    Ties go to the lowest, then leftmost."""
     best = None
     for q, ((w, h), f) in enumerate(zip(shapes, free)):
         inner = f[: max(ey - h + 1, 0), : max(ex - w + 1, 0)]
         if inner.size and (first := inner.argmax(axis=1))[(rows := inner.any(axis=1))].size:
-            # along a row max(x, y) grows with x: each row's best is its first free cell
+            # along a row both reaches grow with x: each row's best is its first free cell
             y = np.flatnonzero(rows)
             x = first[y]
-            j = np.lexsort((x, y, np.maximum(x, y)))[0]
-            cand = ((0.0, max(x[j], y[j]), y[j], x[j]), q, int(x[j]), int(y[j]))
         else:
-            ys, xs = np.nonzero(f)
-            if not len(ys):
+            y, x = np.nonzero(f)
+            if not len(y):
                 continue
-            wide, high = np.maximum(ex, xs + w), np.maximum(ey, ys + h)
+        if rule == "corner" or len(y) and x.max() + w <= ex and y.max() + h <= ey:
+            reach = np.maximum(x, y) if rule == "square" else np.maximum((x + w) / aspect, y + h)
+            j = np.lexsort((x, y, reach))[0]
+            key = (0.0 if rule == "square" else float(reach[j]), float(reach[j]), y[j], x[j])
+        else:
+            wide, high = np.maximum(ex, x + w), np.maximum(ey, y + h)
             square = np.maximum(wide / aspect, high)
             metric = square * square + wide * high / aspect
             tied = np.flatnonzero(metric == metric.min())
-            j = tied[np.lexsort((xs[tied], ys[tied], np.maximum(xs[tied], ys[tied])))[0]]
-            cand = ((1.0 + float(metric[j]), max(xs[j], ys[j]), ys[j], xs[j]), q, int(xs[j]), int(ys[j]))
-        if best is None or cand[0] < best[0]:
-            best = cand
+            j = tied[np.lexsort((x[tied], y[tied], np.maximum(x[tied], y[tied])))[0]]
+            key = (1.0 + float(metric[j]), float(max(x[j], y[j])), y[j], x[j])
+        if best is None or key < best[0]:
+            best = (key, q, int(x[j]), int(y[j]))
     if best is None:  # (positions beside the cells taken are always free)
         raise AssertionError("packing: no free position")
     return best[1], best[2], best[3]
 
 
-def _best_position(region: np.ndarray, poses: list[np.ndarray], ex: int, ey: int, aspect: float):
+def _free_positions(region: np.ndarray, poses: list[np.ndarray]) -> list[np.ndarray]:
+    """Per pose (mask, all fitting in ``region``), the map of its lower-left cells where it
+    takes no cell ``region`` takes: one FFT of the region, one of all the poses and one
+    back, for every position at once."""
+    ay, ax = region.shape
+    if not region.any():
+        return [np.ones((ay - m.shape[0] + 1, ax - m.shape[1] + 1), dtype=bool) for m in poses]
+    shape = (scipy.fft.next_fast_len(ay, real=True), scipy.fft.next_fast_len(ax, real=True))
+    stack = np.zeros((len(poses), *shape), dtype=np.float32)
+    for j, m in enumerate(poses):
+        stack[j, : m.shape[0], : m.shape[1]] = m
+    spectra = np.conj(scipy.fft.rfft2(stack, workers=_WORKERS))
+    spectra *= scipy.fft.rfft2(region.astype(np.float32), s=shape)[None]
+    hits = scipy.fft.irfft2(spectra, s=shape, workers=_WORKERS)
+    return [hits[j, : ay - m.shape[0] + 1, : ax - m.shape[1] + 1] < 0.5 for j, m in enumerate(poses)]
+
+
+def _best_position(region: np.ndarray, poses: list[np.ndarray], ex: int, ey: int, aspect: float, rule: str):
     """The pose (index into ``poses``, masks) and lower-left cell of the best free
-    position in ``region`` (cells taken > 0): the one that leaves the smallest bounding
-    square, then the smallest bounding box, then the one nearest the origin. One FFT of
-    the region, one of all the poses and one back, for every position at once."""
+    position in ``region`` (cells taken > 0), as :func:`_best_box` ranks them."""
     ay, ax = region.shape
     fits = [i for i, m in enumerate(poses) if m.shape[0] <= ay and m.shape[1] <= ax]
-    if not region.any():
-        free = [np.ones((ay - poses[i].shape[0] + 1, ax - poses[i].shape[1] + 1), dtype=bool) for i in fits]
-    else:
-        shape = (scipy.fft.next_fast_len(ay, real=True), scipy.fft.next_fast_len(ax, real=True))
-        stack = np.zeros((len(fits), *shape), dtype=np.float32)
-        for j, i in enumerate(fits):
-            stack[j, : poses[i].shape[0], : poses[i].shape[1]] = poses[i]
-        spectra = np.conj(scipy.fft.rfft2(stack, workers=_WORKERS))
-        spectra *= scipy.fft.rfft2(region, s=shape)[None]
-        hits = scipy.fft.irfft2(spectra, s=shape, workers=_WORKERS)
-        free = [hits[j, : ay - poses[i].shape[0] + 1, : ax - poses[i].shape[1] + 1] < 0.5 for j, i in enumerate(fits)]
-    shapes = [poses[i].shape[::-1] for i in fits]
-    q, x, y = _best_box(free, shapes, ex, ey, aspect)
+    free = _free_positions(region, [poses[i] for i in fits])
+    q, x, y = _best_box(free, [poses[i].shape[::-1] for i in fits], ex, ey, aspect, rule)
     return fits[q], x, y
