@@ -90,3 +90,33 @@ def layout_and_checker(path, V, F, layouts: dict, squares=12):
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def draw_packed(ax, cuv, island, title=""):
+    """A packed layout (corner UVs (t, 3, 2)) in the unit square, each island filled in a
+    colour of its own, with the coverage in the title."""
+    from isoparam_addon.solver import metrics
+
+    colours = plt.cm.tab20(np.asarray(island) % 20)
+    ax.add_collection(PolyCollection(cuv, facecolors=colours, edgecolors="none"))
+    ax.add_patch(plt.Rectangle((0, 0), 1, 1, fill=False, edgecolor="k", linewidth=0.6))
+    ax.set_xlim(-0.02, 1.02)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_aspect("equal")
+    ax.set_title(f"{title}: {metrics.coverage(cuv):.0%}", fontsize=9)
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def packed_side_by_side(path, rows: dict):
+    """One row per mesh (``rows``: name -> {method: (corner UVs, island per face)}), one
+    column per method, saved as a PNG at ``path``."""
+    methods = list(next(iter(rows.values())))
+    fig, axes = plt.subplots(len(rows), len(methods), figsize=(3 * len(methods), 3 * len(rows)), squeeze=False)
+    for r, (name, layouts) in enumerate(rows.items()):
+        for c, method in enumerate(methods):
+            cuv, island = layouts[method]
+            draw_packed(axes[r, c], cuv, island, f"{name}, {method}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)

@@ -11,6 +11,10 @@ Bounding Box (the build before Fill Shapes packed the same way) interleaved.
 
     bash scripts/bench.sh scripts/packing.py
     bash scripts/bench.sh scripts/packing.py --meshes spot homer --repeat 5 --seams smart
+    bash scripts/bench.sh scripts/packing.py --figure docs/img/packing.png --meshes spot homer
+
+``--figure``: the layouts side by side (Fill Shapes, Exact Shape, xatlas with no seams),
+one row per mesh and seams.
 """
 
 from __future__ import annotations
@@ -45,7 +49,15 @@ def _xatlas(V, F, repeat: int):
         t = time.perf_counter()
         vmapping, indices, uvs = xatlas.parametrize(V.astype(np.float32), F.astype(np.uint32))
         times.append(time.perf_counter() - t)
-    return metrics.coverage(uvs[indices].astype(np.float64)), float(np.median(times))
+    cuv = uvs[indices].astype(np.float64)
+    return metrics.coverage(cuv), float(np.median(times)), (cuv, metrics.uv_islands(vmapping[indices], cuv))
+
+
+def _layout(ob):
+    """The object's corner UVs (t, 3, 2) and UV island of every triangle."""
+    bpy.ops.object.mode_set(mode="OBJECT")
+    Ft, cuv = read_uvs(ob)
+    return cuv, metrics.uv_islands(Ft, cuv)
 
 
 def measure(name: str, seams: str, repeat: int) -> dict:
@@ -66,9 +78,9 @@ def measure(name: str, seams: str, repeat: int) -> dict:
         row["pack_" + shape] = float(np.median([r[1] for r in runs]))
         row["cov_" + shape] = runs[-1][2]
     assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
-    bpy.ops.object.mode_set(mode="OBJECT")
-    Ft, cuv = read_uvs(ob)
-    row["charts"] = int(metrics.uv_islands(Ft, cuv).max()) + 1
+    cuv, island = _layout(ob)
+    row["charts"] = int(island.max()) + 1
+    row["layouts"] = {"Fill Shapes": (cuv, island)}
     for shape in SHAPES:
         times = []
         for _ in range(repeat):
@@ -79,7 +91,10 @@ def measure(name: str, seams: str, repeat: int) -> dict:
             bpy.ops.object.mode_set(mode="OBJECT")
         row[shape] = metrics.coverage(read_uvs(ob)[1])
         row[shape + "_s"] = float(np.median(times))
-    row["xatlas"], row["xatlas_s"] = _xatlas(V, F, repeat) if seams == "none" else (float("nan"), float("nan"))
+    row["layouts"]["Exact Shape"] = _layout(ob)
+    row["xatlas"], row["xatlas_s"] = float("nan"), float("nan")
+    if seams == "none":
+        row["xatlas"], row["xatlas_s"], row["layouts"]["xatlas"] = _xatlas(V, F, repeat)
     return row
 
 
@@ -88,7 +103,9 @@ def main(argv=None) -> int:
     ap.add_argument("--meshes", nargs="+", default=MESHES)
     ap.add_argument("--seams", nargs="+", default=["none", "smart"], choices=["none", "smart"])
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--figure", help="save the layouts side by side as this PNG")
     args = ap.parse_args(argv)
+    figure = {}
     isoparam_addon.register()
     print(
         "| mesh | seams | islands | Fill Shapes | pack s | operator s (Bounding Box) | Bounding Box | s "
@@ -100,6 +117,7 @@ def main(argv=None) -> int:
             if seams == "smart" and name == "nefertiti":  # (Smart UV Project's seams: a minute in Blender)
                 continue
             r = measure(name, seams, args.repeat)
+            figure[f"{name} ({seams})"] = r["layouts"]
             print(
                 f"| {name} | {seams} | {r['charts']} | {r['cov_ISOPARAM']:.2f} | {r['pack_ISOPARAM']:.2f} | "
                 f"{r['op_ISOPARAM']:.2f} ({r['op_AABB']:.2f}) | {r['AABB']:.2f} | {r['AABB_s']:.2f} | "
@@ -107,6 +125,11 @@ def main(argv=None) -> int:
                 f"{r['xatlas']:.2f} | {r['xatlas_s']:.2f} |",
                 flush=True,
             )
+    if args.figure:
+        from isoparam_eval.figures import packed_side_by_side
+
+        rows = {k: v for k, v in figure.items() if "xatlas" in v} or figure
+        packed_side_by_side(args.figure, {k: {m: v[m] for m in next(iter(rows.values()))} for k, v in rows.items()})
     return 0
 
 

@@ -36,7 +36,7 @@ __all__ = ["Packing", "pack_layout"]
 
 
 _CELLS = 200  # cells along the side of a square as large as the islands' boxes together
-_SHAPED = 24  # the largest islands, placed by their cells; the rest by their boxes
+_SHAPED = 48  # the largest islands, placed by their cells; the rest by their boxes
 _TURNED = 4  # the largest islands, tried in more frames (turns between the two boxes')
 _BETWEEN = 3  # turns of pi / 8 apart tried beyond the tightest box's
 _FINER = 2  # the boxes' grid: cells this many times finer
@@ -415,7 +415,9 @@ def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float, rul
         reach = max(max(masks[c].shape) for c in choices[u])
         grid = _room(grid, max(ex, ey) + reach)
         ax, ay = min(ex + reach, grid.shape[1]), min(ey + reach, grid.shape[0])
-        i, x, y = _best_position(grid[:ay, :ax], [m for _, _, m in poses], ex, ey, aspect, rule)
+        masks_tried = [m for _, _, m in poses]
+        free = _free_positions(grid[:ay, :ax], masks_tried)
+        i, x, y = _best_pose(free, masks_tried, ex, ey, aspect, rule)
         c, q, m = poses[i]
         h, w = m.shape
         grid[y : y + h, x : x + w] += m
@@ -505,27 +507,30 @@ def _best_box(free: list[np.ndarray], shapes, ex: int, ey: int, aspect: float, r
 
 
 def _free_positions(region: np.ndarray, poses: list[np.ndarray]) -> list[np.ndarray]:
-    """Per pose (mask, all fitting in ``region``), the map of its lower-left cells where it
-    takes no cell ``region`` takes: one FFT of the region, one of all the poses and one
-    back, for every position at once."""
+    """Per pose (mask), the map of its lower-left cells where it takes no cell ``region``
+    takes (empty where it does not fit): one FFT of the region, one of all the poses and
+    one back, for every position at once."""
     ay, ax = region.shape
+    shapes = [(max(ay - m.shape[0] + 1, 0), max(ax - m.shape[1] + 1, 0)) for m in poses]
     if not region.any():
-        return [np.ones((ay - m.shape[0] + 1, ax - m.shape[1] + 1), dtype=bool) for m in poses]
+        return [np.ones(s if min(s) > 0 else (0, 0), dtype=bool) for s in shapes]
+    fits = [j for j, s in enumerate(shapes) if min(s) > 0]
     shape = (scipy.fft.next_fast_len(ay, real=True), scipy.fft.next_fast_len(ax, real=True))
-    stack = np.zeros((len(poses), *shape), dtype=np.float32)
-    for j, m in enumerate(poses):
-        stack[j, : m.shape[0], : m.shape[1]] = m
+    stack = np.zeros((len(fits), *shape), dtype=np.float32)
+    for k, j in enumerate(fits):
+        stack[k, : poses[j].shape[0], : poses[j].shape[1]] = poses[j]
     spectra = np.conj(scipy.fft.rfft2(stack, workers=_WORKERS))
     spectra *= scipy.fft.rfft2(region.astype(np.float32), s=shape)[None]
     hits = scipy.fft.irfft2(spectra, s=shape, workers=_WORKERS)
-    return [hits[j, : ay - m.shape[0] + 1, : ax - m.shape[1] + 1] < 0.5 for j, m in enumerate(poses)]
+    free = [np.zeros((0, 0), dtype=bool) for _ in poses]
+    for k, j in enumerate(fits):
+        free[j] = hits[k, : shapes[j][0], : shapes[j][1]] < 0.5
+    return free
 
 
-def _best_position(region: np.ndarray, poses: list[np.ndarray], ex: int, ey: int, aspect: float, rule: str):
+def _best_pose(free: list[np.ndarray], poses: list[np.ndarray], ex: int, ey: int, aspect: float, rule: str):
     """The pose (index into ``poses``, masks) and lower-left cell of the best free
-    position in ``region`` (cells taken > 0), as :func:`_best_box` ranks them."""
-    ay, ax = region.shape
-    fits = [i for i, m in enumerate(poses) if m.shape[0] <= ay and m.shape[1] <= ax]
-    free = _free_positions(region, [poses[i] for i in fits])
-    q, x, y = _best_box(free, [poses[i].shape[::-1] for i in fits], ex, ey, aspect, rule)
+    position, ``free`` being :func:`_free_positions`' maps, as :func:`_best_box` ranks them."""
+    fits = [i for i, f in enumerate(free) if f.size]
+    q, x, y = _best_box([free[i] for i in fits], [poses[i].shape[::-1] for i in fits], ex, ey, aspect, rule)
     return fits[q], x, y
