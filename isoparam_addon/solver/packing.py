@@ -30,7 +30,7 @@ import scipy.fft
 from . import progress
 from .geometry import TINY, corner_signed_areas
 from .islands import Islands
-from .placement import boxes
+from .placement import boxes, shelves
 
 __all__ = ["Packing", "pack_layout"]
 
@@ -40,6 +40,8 @@ _SHAPED = 48  # the largest islands, placed by their cells; the rest by their bo
 _TURNED = 4  # the largest islands, tried in more frames (turns between the two boxes')
 _BETWEEN = 3  # turns of pi / 8 apart tried beyond the tightest box's
 _FINER = 2  # the boxes' grid: cells this many times finer
+_TINY = 2  # islands under this many fine cells (grown) go on shelves in blocks
+_BLOCK = 12  # the side of those blocks, in fine cells
 _TIE = 1e-6  # relative differences below this are ties (decided by island number, or angle)
 _RULES = ("square", "corner")  # the placement rules tried (:func:`_best_box`)
 _WORKERS = 2  # threads for the FFTs of many poses at once (results do not depend on it)
@@ -262,32 +264,66 @@ def _pack_units(flat, corners: Islands, frames: list[_Frame], cell: float, pad: 
     masks, dims = _rasterize(coords, np.concatenate([nf * r + f for f in range(nf)]), nf * n_shaped, cell, pad)
     # the small islands' boxes, on a finer grid (closed: a side on a cell's edge takes the next)
     fine = cell / _FINER
-    small = np.flatnonzero(~shaped)
-    box_cells = np.floor((frames[0].size + 2.0 * pad) / fine).astype(np.int64) + 1
+    unit, offset, unit_size = _box_units(frames[0].size, ~shaped, pad, fine)
+    box_cells = np.floor(unit_size / fine).astype(np.int64) + 1
     lying = np.sort(box_cells, axis=1)[:, ::-1]  # (long, short): one run per size, either way up
     standing = box_cells[:, 1] > box_cells[:, 0]
-    small = small[np.lexsort((small, lying[small, 1], lying[small, 0], -np.prod(lying[small], axis=1)))]
-    where, shape, turn, box_where, box_turn = _best_of_rules(masks, _choices(frames, by_rank, nf), lying[small], aspect)
-    box_turn ^= standing[small]
+    k = len(box_cells)
+    boxes_order = np.lexsort((np.arange(k), lying[:, 1], lying[:, 0], -np.prod(lying, axis=1)))
+    where, shape, turn, box_where, box_turn = _best_of_rules(
+        masks, _choices(frames, by_rank, nf), lying[boxes_order], aspect
+    )
+    placed_at, placed_turn = np.zeros((k, 2)), np.zeros(k, dtype=np.int64)
+    placed_at[boxes_order], placed_turn[boxes_order] = box_where * fine, box_turn ^ standing[boxes_order]
     # per island: its frame, its cells' extent and lower-left corner (layout units), turn
     extent = np.zeros((n, 2))
     at = np.zeros((n, 2))
     q = np.zeros(n, dtype=np.int64)
     which = np.zeros(n, dtype=np.int64)
     extent[by_rank], at[by_rank], q[by_rank], which[by_rank] = dims[shape] * cell, where * cell, turn, shape % nf
-    if len(small):
-        extent[small], at[small], q[small] = box_cells[small] * fine, box_where * fine, box_turn
+    small = np.flatnonzero(unit >= 0)
+    u = unit[small]
+    extent[small], at[small], q[small] = box_cells[u] * fine, placed_at[u], placed_turn[u]
     chosen = _Frame(
         np.choose(which, [f.angle for f in frames]),
         np.stack([np.choose(which, [f.lo[:, c] for f in frames]) for c in range(2)], axis=1),
         np.zeros((n, 2)),
     )
-    local = _framed(flat, corners, chosen) + pad
+    local = _framed(flat, corners, chosen) + pad + corners.expand(offset)
     W, H = corners.expand(extent[:, 0]), corners.expand(extent[:, 1])
     x, y, qr = local[:, 0], local[:, 1], corners.expand(q)
     px = np.select([qr == 1, qr == 2, qr == 3], [H - y, W - x, y], x)
     py = np.select([qr == 1, qr == 2, qr == 3], [x, H - y, W - x], y)
     return np.stack([px, py], axis=1) + corners.expand(at), n_shaped
+
+
+def _box_units(size, small, pad: float, fine: float):
+    """The units the ``small`` (n,) islands (tightest boxes ``size`` (n, 2)) are placed in by
+    their boxes: each on its own, but the tiny ones (under ``_TINY`` fine cells, grown by
+    ``pad``) shelved into blocks of about ``_BLOCK`` cells square, ``2 * pad`` apart
+    (:func:`.placement.shelves`), so that a cell's rounding is not paid per island.
+
+    Returns per island its unit (-1: none), its corner within the unit (layout units, the
+    pad not counted), and per unit its size grown by ``pad`` on every side (k, 2)."""
+    n = len(size)
+    unit = np.full(n, -1, dtype=np.int64)
+    offset = np.zeros((n, 2))
+    grown = size + 2.0 * pad
+    tiny = small & (grown.max(axis=1) < _TINY * fine)
+    alone = np.flatnonzero(small & ~tiny)
+    unit[alone] = np.arange(len(alone))
+    sizes = [grown[alone]]
+    few = np.flatnonzero(tiny)
+    if len(few):
+        few = few[np.lexsort((few, -size[few, 1]))]  # by height: blocks of like islands
+        area = np.prod(grown[few], axis=1)
+        block = np.floor((np.cumsum(area) - area) / (_BLOCK * fine) ** 2).astype(np.int64)
+        offset[few] = shelves(size[few], 2.0 * pad, group=block)
+        reach = np.zeros((int(block.max()) + 1, 2))
+        np.maximum.at(reach, block, offset[few] + size[few])
+        unit[few] = len(alone) + block
+        sizes.append(reach + 2.0 * pad)
+    return unit, offset, np.concatenate(sizes)
 
 
 def _best_of_rules(masks, choices, boxes_lying: np.ndarray, aspect: float):
@@ -479,16 +515,16 @@ def _best_box(free: list[np.ndarray], shapes, ex: int, ey: int, aspect: float, r
     Ties go to the lowest, then leftmost."""
     best = None
     for q, ((w, h), f) in enumerate(zip(shapes, free)):
-        inner = f[: max(ey - h + 1, 0), : max(ex - w + 1, 0)]
-        if inner.size and (first := inner.argmax(axis=1))[(rows := inner.any(axis=1))].size:
-            # along a row both reaches grow with x: each row's best is its first free cell
-            y = np.flatnonzero(rows)
-            x = first[y]
-        else:
-            y, x = np.nonzero(f)
-            if not len(y):
-                continue
-        if rule == "corner" or len(y) and x.max() + w <= ex and y.max() + h <= ey:
+        # both rules grow with x along a row: each row's best is its first free cell
+        rows = f.any(axis=1)
+        y = np.flatnonzero(rows)
+        if not len(y):
+            continue
+        x = f.argmax(axis=1)[y]
+        inner = (x + w <= ex) & (y + h <= ey)
+        if rule == "square" and inner.any():
+            x, y = x[inner], y[inner]
+        if rule == "corner" or inner.any():
             reach = np.maximum(x, y) if rule == "square" else np.maximum((x + w) / aspect, y + h)
             j = np.lexsort((x, y, reach))[0]
             key = (0.0 if rule == "square" else float(reach[j]), float(reach[j]), y[j], x[j])
