@@ -154,3 +154,25 @@ def test_islands_alike_are_packed_alike_whatever_the_rounding(spot_charts):
     for _ in range(4):
         nudged = copies * (1 + 1e-12 * rng.standard_normal()) + 1e-13 * rng.standard_normal(copies.shape)
         assert np.abs(packing.pack_layout(nudged, label, 30, margin=0.002).uv - first).max() < 1e-9
+
+
+def test_a_long_strip_keeps_the_raster_small():
+    # a ribbon 1000 times as long as it is wide, beside five small squares: the cell
+    # follows the square the layout needs, not the islands' area (which would put tens of
+    # thousands of cells along the ribbon, and minutes into the FFTs)
+    xs = np.linspace(0.0, 100.0, 201)
+    ribbon = np.concatenate(
+        [
+            np.stack([np.c_[xs[:-1], 0 * xs[:-1]], np.c_[xs[1:], 0 * xs[1:]], np.c_[xs[1:], 0 * xs[1:] + 0.1]], 1),
+            np.stack(
+                [np.c_[xs[:-1], 0 * xs[:-1]], np.c_[xs[1:], 0 * xs[1:] + 0.1], np.c_[xs[:-1], 0 * xs[:-1] + 0.1]], 1
+            ),
+        ]
+    )
+    square = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], dtype=np.float64)
+    uv = np.concatenate([ribbon] + [square + [0, 2 + 2 * k] for k in range(5)])
+    island = np.repeat(np.arange(6), [len(ribbon)] + [2] * 5)
+    res = packing.pack_layout(uv, island, 6, margin=0.001)
+    assert res.cell > 1 / 1000  # fewer than a thousand cells along the square's side
+    assert islands_overlapping(res.uv, island) == 0
+    assert res.uv.min() >= 0.001 - 1e-12 and res.uv.max() <= 0.999 + 1e-12

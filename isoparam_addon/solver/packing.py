@@ -5,19 +5,25 @@ more of the texture's texels land on the model.
    rectangle, searched over angles), the turn to its smallest bounding square, and, for
    the largest islands, turns in between.
 2. The largest islands (``_SHAPED``) are rasterized conservatively, grown by half the
-   margin, at a cell that puts about ``_CELLS`` cells along the side of their boxes' area.
+   margin, at a cell that puts about ``_CELLS`` cells along the side of a square as large
+   as all the boxes (or along half the longest island, where that is longer).
    They go in one at a time, largest first, each in the best of its frames and their four
    quarter turns, at the free position that keeps the layout's bounding square smallest,
-   then its bounding box, then nearest the origin: the rule of xatlas's packer
-   (J. Young, ``xatlas``, ``PackCharts``). Where an island fits is one FFT correlation of
-   its cells with the cells taken, for every position and pose at once.
+   then its bounding box, then nearest the origin: the rule of xatlas's packer (J. Young,
+   ``xatlas``: ``findChartLocation_bruteForce`` in ``packCharts``). Where an island fits
+   is one FFT correlation of its cells with the cells taken, for every position and pose
+   at once.
 3. The other islands go by their boxes (lying or standing), smallest last, on a grid
    ``_FINER`` times finer, into the room left, holes first (summed-area tables, one per
-   run of boxes of one size).
+   run of boxes of one size); the tiniest on shelves in blocks first.
+4. Both steps run by two placement rules (xatlas's smallest square, Blender's nearest
+   corner); the packing with the smaller square is kept, then turned as a whole to the
+   angle of its smallest bounding square.
 
 Islands end ``2 * margin`` apart at least: each is grown by half of it (its cells cover
 every point within that Chebyshev distance), and grown islands never share a cell. Pure
-numpy and ``scipy.fft``; the loops run once per large island and once per size of box.
+numpy and ``scipy.fft``; the loops run once per large island and once per size of box
+(per rule).
 """
 
 from __future__ import annotations
@@ -107,7 +113,9 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
     area = float(np.abs(corner_signed_areas(pts)).sum())
     boxes_area = float(np.prod(frames[0].size, axis=1).sum())
     room = max(boxes_area, area, TINY)
-    cell = np.sqrt(room) / _CELLS
+    # the cell follows the square the layout will need: the boxes' area, or half the
+    # longest island's side where that is more (a long strip would take thousands of cells)
+    cell = max(np.sqrt(room), 0.5 * float(frames[1].size.max(initial=0.0))) / _CELLS
     # the gap in layout units follows the side the layout ends up with: guessed, then
     # checked against the side packed, and packed again wider if it was short
     side = np.sqrt(room / 0.5) / (1.0 - 2.0 * margin)
