@@ -161,15 +161,15 @@ def _squarest(points: np.ndarray, aspect: float) -> np.ndarray:
     best = fine[int(np.argmin(side(fine)))]
     if side(np.array([best]))[0] >= side(np.zeros(1))[0] * (1 - _TIE):
         return points
-    c, s = np.cos(best), np.sin(best)
-    return np.stack([c * points[:, 0] + s * points[:, 1], c * points[:, 1] - s * points[:, 0]], axis=1)
+    return _turn(points, whole, np.array([best]))
 
 
 # ---------------------------------------------------------------------------- boxes
 
 
 def _turn(points, groups: Islands, angle) -> np.ndarray:
-    """Rows of ``points`` (r, 2) turned clockwise by their island's ``angle``."""
+    """Rows of ``points`` (r, 2) turned clockwise by their island's ``angle`` (n,): as
+    :func:`.placement.rotated` by ``-angle``, with one sine and cosine per island, not per row."""
     c, s = groups.expand(np.cos(angle)), groups.expand(np.sin(angle))
     x, y = points[:, 0], points[:, 1]
     return np.stack([c * x + s * y, c * y - s * x], axis=1)
