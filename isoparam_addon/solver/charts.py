@@ -46,6 +46,7 @@ is the pins' to shape).
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, replace
 
@@ -53,15 +54,15 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from . import metrics
+from . import metrics, stress
 from .geometry import TINY, corner_angles, corner_signed_areas, face_areas, safe_divide
-from .islands import Islands, first_rows
-from .mesh import HalfEdges, edge_mask, pair_keys, unit_of
-from .mincut import FaceGraph, face_graph, minimum_cut, source_side
+from .islands import first_rows
+from .mesh import HalfEdges, edge_mask, pair_keys, unique_edges, unit_of
+from .mincut import FaceGraph, face_graph, minimum_cut, source_side, without_chips
 from .options import Options, Problem
+from .ordering import nested_dissection
 from .pipeline import solve, topology_of
 from .progress import geometric, stage, tick
-from .refinement import FaceFrames
 from .report import (
     OPENED_KINDS,
     TOPOLOGY_KINDS,
@@ -74,7 +75,6 @@ from .report import (
 )
 from .resolve import cut_further, pairs, sub_problem
 from .result import Parametrization, topology_warnings
-from .seeds import lscm
 from .topology import Topology
 from .untangle import separating_cuts, without_overlaps
 
@@ -82,25 +82,30 @@ __all__ = ["with_charts"]
 
 _CELLS = 3  # cells per island ...
 _CURVED = 2.0 * np.pi  # ... whose interior holds more Gaussian curvature than this (half a sphere)
-_ROUNDS = 8  # split, solve again, measure: at most this many times
+_ROUNDS = 8  # predict, cut: at most this many times before the solve
 _COVER = 0.5  # a round splits the charts that hold this share of their island's excess stretch
 _BALL = 0.35  # radius of the balls cut apart, as a share of the distance between their centres
 _SMOOTH = 3  # rounds of neighbour averaging of the area ratio that places the balls
-_PREDICT = 2.0  # caps a conformal map squeezes below 1 / s^(2 _PREDICT) of their area are slit at once
 _LEAVE = 0.1  # charts within this share of the budget's excess over isometric are not split
 _BAND = 0.1  # a cell boundary moves where its two seeds' distances differ by less than this share of the cell radius
 _GRID = 64  # the log area ratios that place cuts are rounded to 1 / _GRID
+_FOLDING = 4.0  # a slit along edges whose banks the prediction folds over each other costs this much more
+_FOLDED_SHARE = 1.0  # a slit whose banks would fold along more than this share of its length is not cut
+_OPENS = 0.0
+_FEWEST = 64  # a chart of fewer faces is not cut further ...
+_CHIP = 0.05  # ... and one of fewer faces and this share of its island is a chip, joined to a neighbour
+_START_UNSLIT = bool(os.environ.get("UNSLIT"))
+_COVER_ENV = float(os.environ.get("COVER", 0.5))
+_CHECKS = 2  # solves after the first: where the charts are still over the budget as refined
+_AIM = 1.25
+_FIRST_AIM = float(os.environ.get("FIRST_AIM", 1.25))  # after the solve, cuts are placed until the prediction is this far within the budget
+_MOST_SCALE = 100.0  # a refined island is taken to stretch at most this many times its prediction
+_CHECK_SLITS = bool(os.environ.get("CHECK_SLITS"))
+_PROTRUDE = bool(os.environ.get("PROTRUDE"))
+_NET = 0.5  # a cap is slit when the curvature around it is at least this share of its own
+_DEBUG = bool(os.environ.get("DEBUG"))
+_NOSLITS = bool(os.environ.get("NOSLITS"))
 _TIE = 1e-9  # distances this close (relative) are equal: the lowest-numbered face is the seed
-# the refinement's stopping tolerance wherever charts are cut: at the default 2e-4 an
-# island stops while its layout can still move by 1e-3 of its size, which decides where
-# the next cut goes (rounding of the input then moved the charts found, and their
-# energy by up to 0.4%); at 1e-5 the layout has settled, for about 10% more time
-_SETTLED = 1e-5
-# ... and an island whose energy is over this share of the budget's excess over isometric,
-# which may be cut next, refines until its layout stops moving too (see
-# :func:`.refinement._converged`): where it is most squeezed, which decides the cut,
-# converges slowest
-_DECIDING = 0.8
 
 
 @dataclass(frozen=True)
@@ -140,46 +145,38 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
                 result = without_overlaps(result, problem, options)
         result.warnings += _over_budget(result, owners, options.max_stretch, options.refine > 0)
         return result
-    settle = np.isin(owners.face, owners.charted)  # (only where charts are cut)
-    problem = replace(
-        problem,
-        face_tol=np.where(settle, min(options.refine_tol, _SETTLED), options.refine_tol),
-        settle_above=np.where(settle, 4.0 + _DECIDING * (energy_budget(options.max_stretch) - 4.0), np.inf),
-    )
-    with stage("cutting closed parts into cells", 0.04, 0.05):
+    with stage("cutting closed parts into cells", 0.04, 0.06):
         cells = _cell_boundaries(owners.graph, owners.face, owners.charted[owners.curved[owners.charted]])
-    with stage("slitting squeezed caps", 0.05, 0.08):
-        slits, slit = _conformal_slits(problem, options, np.vstack([seams, cells]), owners)
-    first = np.vstack([cells, slits])  # the cuts of the first solve
-    with stage("charting", 0.08, 0.5):
-        if len(first):
-            result = solve(replace(problem, seams=np.vstack([seams, first])), options)
+    with stage("placing cuts", 0.06, 0.15):
+        placed, stretched = _placed_cuts(problem, options, np.vstack([seams, cells]), owners)
+    first = _without_chips(owners, np.vstack([cells, placed]))  # every cut decided before the solve
+    with stage("charting", 0.15, 0.75):
+        if _START_UNSLIT and len(first) and options.refine:
+            start = solve(replace(problem, seams=np.vstack([seams, cells])), replace(options, refine=0, pack=False))
+            problem_ = replace(problem, seams=np.vstack([seams, first]), start=start.corner_uv)
         else:
-            result = solve(problem, options, built)
+            problem_ = replace(problem, seams=np.vstack([seams, first]))
+        result = (
+            solve(problem_, options)
+            if len(first)
+            else solve(problem, options, built)
+        )
     first_solve = result.timings.total
     result.cut_edges = np.vstack([first, result.cut_edges])
-    rounds = 0
     stretch_cut = np.zeros(topo.n_islands, dtype=bool)  # islands cut where they stretched
-    stretch_cut[slit] = True
-    with stage("charting", 0.5, 0.9):  # rounds: cut, solve the islands cut again
-        for rounds in range(1, _ROUNDS + 1):
-            # split what stretches too much, and cut apart what overlaps itself, in one solve
-            seams_now = np.vstack([seams, result.cut_edges])
-            graph = face_graph(V, F, result.face_island, seams_now, problem.inner_edges)
-            tick()
-            new, split = _stretch_cuts(result, graph, owners, options.max_stretch)
-            tick()
-            stretch_cut[owners.face[first_rows(result.face_island, result.n_islands)[split]]] = True
-            overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
-            if len(overlapping):
-                apart = separating_cuts(result, problem, overlapping, graph)
-                result.stats.overlap_cuts += len(apart)
-                new, split = np.vstack([new, apart]), np.union1d(split, overlapping)
+    stretch_cut[stretched] = True
+    rounds = 0
+    for check in range(_CHECKS):  # cut what is still over the budget or overlaps itself
+        with stage("checking the charts", *geometric(check + 1)):
+            new, split = _checked_cuts(result, problem, owners, options)
+            stretch_cut[owners.face[first_rows(result.face_island, result.n_islands)[split[0]]]] = True
+            if len(new):
+                new = _new_without_chips(owners, result, problem, new)
             if not len(new):
-                rounds -= 1
                 break
-            with stage(f"round {rounds + 1}", *geometric(rounds)):
-                result = cut_further(result, problem, new, split, options)
+            rounds += 1
+            with stage(f"round {rounds + 1}", 0.0, 1.0):
+                result = cut_further(result, problem, new, np.union1d(*split), options)
     result.cut_islands = topo.cut_islands
     result.timings.topology += t_topology
     result.timings.charts = time.perf_counter() - t0 - first_solve - t_topology
@@ -312,18 +309,37 @@ def _chart_energy(result: Parametrization, owners: _Owners, islands: np.ndarray 
     return np.where(ok, sd, 4.0), np.where(ok, area, 0.0), owner
 
 
-def _stretch_cuts(result: Parametrization, graph: FaceGraph, owners: _Owners, budget: float):
-    """The cuts of one round (k, 2 vertex pairs) and the islands of ``result`` they cut:
-    in every charted island whose charts stretch more than ``budget`` on average, the
-    charts holding ``_COVER`` of its excess, each slit to every cap it squeezes beyond the
-    budget (:func:`_slits`), or, with none, cut in two between its most squeezed and its
-    most stretched place (:func:`_balls`)."""
+@dataclass(frozen=True)
+class _Charts:
+    """Charts of some islands and how distorted each is (as laid out, or as predicted):
+    what the cuts of a round read. Faces and vertices are those of ``vertices``,
+    ``faces``, which may be a part of the mesh."""
+
+    vertices: np.ndarray  # (n, 3)
+    faces: np.ndarray  # (m, 3)
+    face_island: np.ndarray  # (m,) the chart of each face
+    n_islands: int
+    energy: np.ndarray  # (k,) per chart, symmetric Dirichlet energy per area at its best scale
+    area: np.ndarray  # (k,) per chart, 3D area (0: not to judge)
+    owner: np.ndarray  # (k,) per chart, the island (of ``_Owners``) it was cut from
+    ratio: np.ndarray  # (m,) per face, log area ratio, smoothed and rounded (see _smoothed)
+
+
+def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: float, opening=None, slit=True):
+    """The cuts of one round (k, 2 vertex pairs) and the charts they cut: in every island
+    whose charts stretch more than ``budget`` on average, the charts holding ``_COVER``
+    of its excess, each slit to every cap it squeezes beyond the budget (:func:`_slits`),
+    or, with none, cut in two between its most squeezed and its most stretched place
+    (:func:`_balls`). ``opening`` (per edge of ``graph``): how far a slit along it would
+    open (see :func:`_slits`)."""
     none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
-    energy, area, owner = _chart_energy(result, owners)
-    k = owners.topo.n_islands
+    energy, area, owner = charts.energy, charts.area, charts.owner
+    k = n_owners
     mean = safe_divide(np.bincount(owner, energy * area, minlength=k), np.bincount(owner, area, minlength=k))
     limit = energy_budget(budget)
     over = (area > 0) & (mean[owner] > limit)
+    if _DEBUG:
+        print("  stretch: mean", np.round(mean[np.unique(owner)][:5], 3), "limit", limit, "over", over.sum(), "energy", np.round(energy[:5], 3), "area", area[:5])
     if not over.any():
         return none
     excess = np.where(over, (energy - 4.0) * area, 0.0)
@@ -332,75 +348,193 @@ def _stretch_cuts(result: Parametrization, graph: FaceGraph, owners: _Owners, bu
     running = np.concatenate([[0.0], np.cumsum(excess[order])])
     before = running[:-1] - running[np.searchsorted(sorted_owner, sorted_owner)]  # excess ahead in its island
     total = np.bincount(owner, excess, minlength=k)
-    chosen = order[(before < _COVER * total[sorted_owner]) & over[order]]
+    chosen = order[(before < _COVER_ENV * total[sorted_owner]) & over[order]]
     chosen = chosen[energy[chosen] > 4.0 + _LEAVE * (limit - 4.0)]  # leave near-isometric charts
+    faces = np.bincount(charts.face_island, minlength=charts.n_islands)
+    owned = np.bincount(owner, faces, minlength=k)[owner]  # faces of each chart's island
+    chosen = chosen[faces[chosen] >= np.minimum(_FEWEST, 2.0 * _CHIP * owned[chosen])]  # (no chips)
     if not len(chosen):
         return none
-    ratio = _area_ratio(result, graph)
-    on = np.isin(result.face_island, chosen)
+    ratio = charts.ratio
+    on = np.isin(charts.face_island, chosen)
     # every region the layout squeezes beyond the budget is a cap to let open: a slit to
     # its most squeezed face
     tips = _tips(graph, on & (ratio < -2.0 * np.log(budget)), ratio)
-    slit, slitted = _slits(result, graph.among(on), tips, ratio)
+    tips = tips[np.broadcast_to(slit, (n_owners,))[owner[charts.face_island[tips]]]]
+    if _PROTRUDE:
+        tips = tips[_protruding(graph, charts.vertices, charts.faces, tips, on & (ratio < -2.0 * np.log(budget)))]
+    keep = on[graph.f] & on[graph.g]
+    slit, slitted = _slits(charts, graph.among(on), tips, ratio, None if opening is None else opening[keep])
     rest = np.setdiff1d(chosen, slitted)
     cuts = [slit]
     if len(rest):
-        source, sink = _balls(result, graph, rest, ratio)
-        cuts.append(minimum_cut(graph.among(np.isin(result.face_island, rest)), source, sink))
+        source, sink, centres = _balls(charts, graph, rest, ratio)
+        inside = graph.among(np.isin(charts.face_island, rest))
+        cuts.append(without_chips(inside, minimum_cut(inside, source, sink), centres))
     cut = np.vstack(cuts)
     return (cut, chosen) if len(cut) else none
 
 
-@dataclass(frozen=True)
-class _Layout:
-    """A layout of the mesh's faces, per face corner, and its islands: what the cuts of a
-    round read (a :class:`.result.Parametrization` is one too)."""
+def _laid_out(result: Parametrization, owners: _Owners, graph: FaceGraph) -> _Charts:
+    """The charts of ``result`` as its layout distorts them."""
+    energy, area, owner = _chart_energy(result, owners)
+    V, F, isl = result.vertices, result.faces, result.face_island
+    a3 = face_areas(V, F)
+    a2 = np.abs(corner_signed_areas(result.corner_uv))
+    A3 = np.bincount(isl, a3, minlength=result.n_islands)
+    A2 = np.bincount(isl, a2, minlength=result.n_islands)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.log(np.maximum(a2, TINY) / np.maximum(a3, TINY)) - np.log(A2 / A3)[isl]
+    ratio = np.where(np.isfinite(ratio), ratio, 0.0)
+    return _Charts(V, F, isl, result.n_islands, energy, area, owner, _smoothed(graph, ratio, a3))
 
-    vertices: np.ndarray  # (n, 3)
-    faces: np.ndarray  # (m, 3)
-    corner_uv: np.ndarray  # (m, 3, 2)
-    face_island: np.ndarray  # (m,)
-    n_islands: int
+
+def _checked_cuts(result: Parametrization, problem: Problem, owners: _Owners, options: Options):
+    """The cuts (k, 2 vertex pairs) of the one round after the solve, and the charts of
+    ``result`` they cut because they stretch and because they overlap themselves: the
+    charts still beyond the budget as refined (:func:`_stretch_cuts`, which the
+    prediction missed), and, with ``options.split_overlaps``, those that overlap
+    themselves (:func:`.untangle.separating_cuts`)."""
+    V, F = result.vertices, result.faces
+    graph = face_graph(
+        V, F, result.face_island, np.vstack([pairs(problem.seams), result.cut_edges]), problem.inner_edges
+    )
+    tick()
+    energy, area, owner = _chart_energy(result, owners)
+    k = owners.topo.n_islands
+    total = np.bincount(owner, area, minlength=k)
+    measured = safe_divide(np.bincount(owner, (energy - 4.0) * area, minlength=k), total)
+    over = np.flatnonzero((total > 0) & (4.0 + measured > energy_budget(options.max_stretch)))
+    new, split = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
+    if len(over):
+        seams = np.vstack([pairs(problem.seams), result.cut_edges])
+        new, _ = _placed_cuts(problem, options, seams, owners, over, measured, slit=_CHECK_SLITS)
+        split = np.unique(result.face_island[np.isin(owners.face, over)])
+    tick()
+    overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
+    if len(overlapping):
+        apart = separating_cuts(result, problem, overlapping, graph)
+        result.stats.overlap_cuts += len(apart)
+        new = np.vstack([new, apart])
+    return new, (split, overlapping)
 
 
-def _conformal_slits(
-    problem: Problem, options: Options, seams: np.ndarray, owners: _Owners
-) -> tuple[np.ndarray, np.ndarray]:
-    """Slits (k, 2 vertex pairs) into the caps that a conformal map of every charted island
-    (cut along ``seams`` and opened into disks) squeezes to less than ``1 / s^(2 _PREDICT)``
-    of their area (``s``: Max Stretch), chosen as in a round (:func:`_slits`), and the
-    islands (of ``owners``) they slit.
+def _placed_cuts(
+    problem: Problem,
+    options: Options,
+    seams: np.ndarray,
+    owners: _Owners,
+    which: np.ndarray | None = None,
+    measured: np.ndarray | None = None,
+    slit: bool = True,
+):
+    """The cuts (k, 2 vertex pairs) that bring the charted islands ``which`` (of
+    ``owners``; all by default) within the budget as predicted (:mod:`.stress`), and
+    the islands they cut. ``measured`` (per island of ``owners``): the energy per area
+    above isometric its charts were refined to, if they were; the prediction of each island is scaled to
+    it (a linear prediction misses what large strains and banks pressed together add).
+    ``slit``: cuts may be slits.
 
-    A conformal map keeps angles and puts all of its distortion into area; an isometric
-    layout shares it between area and angle. Where the conformal map squeezes a cap far
-    beyond the budget, the refined layout squeezes it beyond the budget too: slit before
-    the first refinement, which then starts nearer its end, such a cap costs no round. One
-    sparse solve per island (:func:`.seeds.lscm`), where a round costs a refinement."""
-    faces = np.flatnonzero(np.isin(owners.face, owners.charted))  # the charted islands alone
-    problem, used = sub_problem(replace(problem, seams=seams), faces)
-    V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
-    # (two wedges of an island that other islands' faces separated meet at a bare vertex)
-    _, _, topo = topology_of(problem, replace(options, split_nonmanifold=True))
-    tick(0.3)
+    Rounds as after a solve (:func:`_stretch_cuts`), but each reads the linear prediction
+    of the charts cut along ``seams`` and the cuts so far, where a round after a solve
+    reads a refined layout: a prediction costs one factor of a Laplacian, moves smoothly
+    with the mesh (no stopping test of a descent decides it), and leaves the solve one
+    refinement from a start near its end. A slit runs where the prediction pulls its
+    banks apart (:func:`.stress.normal_stress`), not where they would fold over each
+    other."""
+    faces = np.flatnonzero(np.isin(owners.face, owners.charted if which is None else which))
+    sub, used = sub_problem(replace(problem, seams=seams), faces)
+    V, F = np.asarray(sub.vertices), np.asarray(sub.faces)
     unit = unit_of(V)
-    X = V[topo.vertex_of] / unit
-    islands = Islands(topo.vertex_island, topo.n_islands)
-    owner = owners.face[faces[first_rows(topo.face_island, topo.n_islands)]]
-    none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
-    try:
-        uv = lscm(X, topo.faces, islands, FaceFrames(X, topo.faces), np.ones(topo.n_islands, dtype=bool))
-    except RuntimeError:  # SuperLU: "Factor is exactly singular": no prediction, the rounds decide
-        return none
-    tick(0.6)
-    layout = _Layout(V, F, uv[topo.corner_vertex], topo.face_island, topo.n_islands)
-    graph = face_graph(V, F, topo.face_island, np.vstack([pairs(problem.seams), topo.cut_edges]), problem.inner_edges)
-    tick(0.8)
-    ratio = _area_ratio(layout, graph)
-    tips = _tips(graph, ratio < -2.0 * _PREDICT * np.log(options.max_stretch), ratio)
-    if not len(tips):
-        return none
-    slits, slit = _slits(layout, graph, tips, ratio)
-    return used[slits], np.unique(owner[slit])
+    n_owners = owners.topo.n_islands
+    scale = None
+    rank = np.empty(len(V), dtype=np.int64)
+    rank[nested_dissection(V / unit, unique_edges(F))] = np.arange(len(V))
+    a3 = face_areas(V, F)
+    cuts = np.zeros((0, 2), dtype=np.int64)
+    cut_owners = np.zeros(0, dtype=np.int64)
+    for j in range(_ROUNDS):
+        tick(j / _ROUNDS)
+        # (two wedges of an island that other islands' faces separated meet at a bare vertex)
+        _, _, topo = topology_of(
+            replace(sub, seams=np.vstack([pairs(sub.seams), cuts])), replace(options, split_nonmanifold=True)
+        )
+        X = V[topo.vertex_of] / unit
+        boundary = np.zeros(len(X), dtype=bool)
+        h = np.flatnonzero(topo.he.twin < 0)
+        boundary[topo.faces.ravel()[h]] = True
+        order = np.argsort(rank[topo.vertex_of], kind="stable")
+        prediction = stress.predict(X, topo.faces, boundary, topo.face_island, topo.n_islands, order)
+        graph = face_graph(V, F, topo.face_island, np.vstack([pairs(sub.seams), cuts, topo.cut_edges]), sub.inner_edges)
+        owner = owners.face[faces[first_rows(topo.face_island, topo.n_islands)]]
+        ratio = _smoothed(graph, prediction.face_trace(topo.faces), a3)
+        if measured is not None and scale is None:  # refined against predicted, per island
+            predicted = safe_divide(
+                np.bincount(owner, prediction.excess, minlength=n_owners),
+                np.bincount(owner, prediction.area, minlength=n_owners),
+            )
+            if _DEBUG:
+                print("calib", measured[which], predicted[which])
+            # (aimed a quarter lower: a cut after the solve is the last)
+            scale = _AIM * np.clip(safe_divide(measured, predicted, 1.0), 1.0, _MOST_SCALE)
+        excess = prediction.excess * (_FIRST_AIM if scale is None else scale[owner])
+        energy = 4.0 + safe_divide(excess, prediction.area)
+        charts = _Charts(V, F, topo.face_island, topo.n_islands, energy, prediction.area, owner, ratio)
+        # the split vertex of each edge's ends in the faces' numbering: phi lives on split vertices
+        corner = topo.corner_vertex[graph.f]
+        ends = np.stack([_corner_of(F[graph.f], corner, graph.edges[:, c]) for c in (0, 1)], axis=1)
+        opening = stress.normal_stress(X, topo.faces, prediction.phi, ends)
+        new, split = _stretch_cuts(charts, graph, n_owners, options.max_stretch, opening, slit)
+        if _DEBUG:
+            print("round", j, "new", len(new), "energy of chosen", np.round(energy[split], 3), "owners", owner[split])
+        if not len(new):
+            break
+        cuts = np.vstack([cuts, new])
+        cut_owners = np.union1d(cut_owners, owner[split])
+    return used[cuts], cut_owners
+
+
+def _without_chips(owners: _Owners, cuts: np.ndarray) -> np.ndarray:
+    """``cuts`` (k, 2 vertex pairs) less those that only bound chips: charts of fewer than
+    ``_FEWEST`` faces and ``_CHIP`` of their island's join the chart beside them they
+    share most seam with (where a slit, a ball's cut and a cell's boundary meet, they can
+    close round a few faces)."""
+    assert owners.graph is not None
+    size = np.bincount(owners.face)[owners.face]
+    return without_chips(owners.graph, cuts, fewest=np.minimum(_FEWEST, _CHIP * size))
+
+
+def _new_without_chips(owners: _Owners, result: Parametrization, problem: Problem, new: np.ndarray) -> np.ndarray:
+    """The ``new`` cuts of ``result``'s charts less those that only bound chips (see
+    :func:`_without_chips`; the cuts made so far stay)."""
+    graph = face_graph(
+        result.vertices,
+        result.faces,
+        owners.face,
+        np.vstack([pairs(problem.seams), result.cut_edges]),
+        problem.inner_edges,
+    )
+    size = np.bincount(owners.face)[owners.face]
+    return without_chips(graph, new, fewest=np.minimum(_FEWEST, _CHIP * size))
+
+
+def _corner_of(F: np.ndarray, split: np.ndarray, vertex: np.ndarray) -> np.ndarray:
+    """Per row, the entry of ``split`` (k, 3) at the corner of ``F`` (k, 3) that holds ``vertex`` (k,)."""
+    k = np.argmax(F == vertex[:, None], axis=1)
+    return split[np.arange(len(F)), k]
+
+
+def _smoothed(graph: FaceGraph, value: np.ndarray, area: np.ndarray) -> np.ndarray:
+    """``value`` (m,) per face smoothed by ``_SMOOTH`` rounds of ``area``-weighted averaging
+    over each face and its neighbours in ``graph``, and rounded to ``1 / _GRID``: which
+    face is most squeezed, and which path is shortest, must not follow the rounding of
+    the layout (another machine's sums)."""
+    m = len(value)
+    adjacency = sp.coo_matrix((np.ones(len(graph.f)), (graph.f, graph.g)), shape=(m, m))
+    adjacency = (adjacency + adjacency.T).tocsr()
+    for _ in range(_SMOOTH):
+        value = safe_divide(adjacency @ (value * area) + value * area, adjacency @ area + area)
+    return np.round(_GRID * value) / _GRID
 
 
 def _tips(graph: FaceGraph, squeezed: np.ndarray, ratio: np.ndarray) -> np.ndarray:
@@ -410,6 +544,50 @@ def _tips(graph: FaceGraph, squeezed: np.ndarray, ratio: np.ndarray) -> np.ndarr
     n_caps = int(caps.max(initial=-1)) + 1
     depth = np.where(caps >= 0, ratio, np.inf)
     return _extreme(depth, np.where(caps >= 0, caps, n_caps), np.arange(n_caps), np.minimum, np.inf)
+
+
+def _protruding(graph: FaceGraph, V: np.ndarray, F: np.ndarray, tips: np.ndarray, squeezed: np.ndarray) -> np.ndarray:
+    """Which ``tips`` (k,) end a protrusion (a limb, an ear, a horn), where a slit opens
+    the cap like a cone, and not a bump in a sheet, whose slit's banks the ring of
+    saddles around it folds back over each other: the Gaussian curvature within twice the
+    cap's radius of its tip is at least ``_NET`` of the cap's own (a bump's ring cancels
+    it)."""
+    if not len(tips):
+        return np.zeros(0, dtype=bool)
+    defect = _face_defects(graph, V, F)
+    caps = _regions(graph, squeezed)
+    n_caps = int(caps.max(initial=-1)) + 1
+    dist, _, source = csgraph.dijkstra(
+        graph.distances(), directed=False, indices=tips, min_only=True, return_predecessors=True
+    )
+    which = np.full(len(F), -1, dtype=np.int64)  # the tip each face is nearest to, by its number
+    reached = source >= 0
+    which[reached] = np.searchsorted(tips, source[reached], sorter=np.argsort(tips))
+    cap_of_tip = caps[tips]
+    radius = np.zeros(len(tips))
+    in_cap = (caps >= 0) & (which >= 0)
+    in_cap &= caps == np.where(which >= 0, cap_of_tip[np.maximum(which, 0)], -2)
+    np.maximum.at(radius, which[in_cap], dist[in_cap])
+    cap_curvature = np.bincount(which[in_cap], defect[in_cap], minlength=len(tips))
+    near = (which >= 0) & (dist <= 2.0 * radius[np.maximum(which, 0)])
+    around = np.bincount(which[near], defect[near], minlength=len(tips))
+    del n_caps
+    return around >= _NET * cap_curvature
+
+
+def _face_defects(graph: FaceGraph, V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Per face (m,), its share of the Gaussian curvature (angle defects) of its corners'
+    vertices, each vertex's shared among its faces: vertices on a boundary, seam or cut
+    of ``graph`` hold none."""
+    n, m = len(V), len(F)
+    angle, _, _ = corner_angles(V, F)
+    corner = F.ravel()
+    defect = 2.0 * np.pi - np.bincount(corner, angle, minlength=n)
+    ends_a, ends_b = corner, F[:, [1, 2, 0]].ravel()
+    joined = np.isin(pair_keys(ends_a, ends_b, n), pair_keys(graph.edges[:, 0], graph.edges[:, 1], n))
+    defect[ends_a[~joined]] = defect[ends_b[~joined]] = 0.0
+    valence = np.bincount(corner, minlength=n)
+    return (safe_divide(defect, valence)[F]).sum(axis=1) * np.ones(m)
 
 
 def _regions(graph: FaceGraph, faces: np.ndarray) -> np.ndarray:
@@ -425,58 +603,43 @@ def _regions(graph: FaceGraph, faces: np.ndarray) -> np.ndarray:
     return label
 
 
-def _area_ratio(result: Parametrization | _Layout, graph: FaceGraph) -> np.ndarray:
-    """Per face (m,), the log of its UV area over its 3D area against its island's,
-    smoothed by ``_SMOOTH`` rounds of area-weighted averaging over its neighbours and
-    rounded to ``1 / _GRID``: negative where the layout squeezes the surface, positive
-    where it stretches it."""
-    V, F, isl = result.vertices, result.faces, result.face_island
-    m = len(F)
-    a3 = face_areas(V, F)
-    a2 = np.abs(corner_signed_areas(result.corner_uv))
-    A3 = np.bincount(isl, a3, minlength=result.n_islands)
-    A2 = np.bincount(isl, a2, minlength=result.n_islands)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.log(np.maximum(a2, TINY) / np.maximum(a3, TINY)) - np.log(A2 / A3)[isl]
-    ratio = np.where(np.isfinite(ratio), ratio, 0.0)
-    adjacency = sp.coo_matrix((np.ones(len(graph.f)), (graph.f, graph.g)), shape=(m, m))
-    adjacency = (adjacency + adjacency.T).tocsr()
-    for _ in range(_SMOOTH):  # area-weighted mean over each face and its neighbours
-        ratio = safe_divide(adjacency @ (ratio * a3) + ratio * a3, adjacency @ a3 + a3)
-    # on a grid of 1/64: which face is most squeezed, and which path is shortest, must not
-    # follow the rounding of the layout (another machine's sums)
-    return np.round(_GRID * ratio) / _GRID
-
-
-def _balls(result: Parametrization, graph: FaceGraph, charts: np.ndarray, ratio: np.ndarray):
+def _balls(result: _Charts, graph: FaceGraph, charts: np.ndarray, ratio: np.ndarray):
     """Per chart in ``charts``, the faces (m,) bool within ``_BALL`` of the distance between
-    its most squeezed and its most stretched face (by ``ratio``, :func:`_area_ratio`) of
-    the one and of the other."""
+    its most squeezed face and its most stretched face at least half the chart's extent
+    away from it (by ``ratio``, :func:`_smoothed`) of the one and of the other, and those
+    faces (2k,). (Two extremes side by side would give balls so small that the cut
+    between them goes round a few faces.)"""
     isl = result.face_island
     on = np.isin(isl, charts)
     low = _extreme(np.where(on, ratio, np.inf), isl, charts, np.minimum, np.inf)
-    high = _extreme(np.where(on, ratio, -np.inf), isl, charts, np.maximum, -np.inf)
     G = graph.distances()
     from_low = csgraph.dijkstra(G, directed=False, indices=low, min_only=True)
+    reached = on & np.isfinite(from_low)
+    size = np.zeros(result.n_islands)  # each chart's extent: the farthest face from its most squeezed
+    np.maximum.at(size, isl[reached], from_low[reached])
+    far = reached & (from_low >= 0.5 * size[isl])
+    high = _extreme(np.where(far, ratio, -np.inf), isl, charts, np.maximum, -np.inf)
     from_high = csgraph.dijkstra(G, directed=False, indices=high, min_only=True)
     reach = np.full(result.n_islands, -1.0)
     reach[charts] = _BALL * from_low[high]
     source = on & (from_low <= reach[isl])
     sink = on & (from_high <= reach[isl]) & ~source
-    return source, sink
+    return source, sink, np.concatenate([low, high])
 
 
 def _slits(
-    result: Parametrization | _Layout, inside: FaceGraph, faces: np.ndarray, ratio: np.ndarray
+    result: _Charts, inside: FaceGraph, faces: np.ndarray, ratio: np.ndarray, opening: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Slits (k, 2 vertex pairs) from the boundary of each chart to a corner of its face in
     ``faces``, and the charts that got one (k,): the shortest paths, as laid out, over the
     edges of ``inside`` (the charts' faces joined), each edge's cost scaled by the layout's
-    length scale there (``ratio``, :func:`_area_ratio`, is its log squared). A slit then
+    length scale there (``ratio``, :func:`_smoothed`, is its log squared). A slit then
     runs through what the layout squeezes, where it must tear, not through what it
     stretches. A squeezed cap that a slit reaches opens like a cone
     cut along a ruling (Gu, Gortler & Hoppe, "Geometry images", 2002, cut the same way to
-    where a layout is most distorted)."""
+    where a layout is most distorted). With ``opening`` (per edge of ``inside``, negative
+    where a slit's banks would fold over each other), such edges cost ``_FOLDING`` times
+    more."""
     F, n = result.faces, len(result.vertices)
     none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
     if not len(faces):
@@ -492,6 +655,8 @@ def _slits(
     use = np.isfinite(inside.cost)  # (never along a polygon's diagonal)
     a, b = inside.edges[use, 0], inside.edges[use, 1]
     w = inside.cost[use] * np.exp(0.25 * (ratio[inside.f[use]] + ratio[inside.g[use]]))
+    if opening is not None:
+        w = np.where(opening[use] < 0.0, _FOLDING * w, w)
     w = w + 1e-12 * max(float(w.max(initial=0.0)), TINY)  # csgraph drops zeros
     G = sp.coo_matrix((w, (a, b)), shape=(n, n)).tocsr()
     target = F[faces, 0]
@@ -503,14 +668,48 @@ def _slits(
     )
     reached &= np.isfinite(dist[target])
     cur = target[reached]
-    pieces = []
+    slit_of = np.arange(len(cur))  # per slit being walked, its number
+    pieces, owner, steps = [], [], []
     while cur.size:  # one step along every slit at once; as many rounds as the longest
         prev = pred[cur].astype(np.int64)
         pieces.append(np.stack([cur, prev], axis=1))
-        cur = prev[~boundary[prev]]
+        owner.append(slit_of)
+        steps.append(np.full(len(cur), len(steps)))
+        slit_of, cur = slit_of[~boundary[prev]], prev[~boundary[prev]]
     if not pieces:
         return none
-    return np.unique(np.sort(np.concatenate(pieces), axis=1), axis=0), np.unique(result.face_island[faces[reached]])
+    edges, slit_of, step = np.concatenate(pieces), np.concatenate(owner), np.concatenate(steps)
+    keep = np.ones(len(edges), dtype=bool)
+    if opening is not None:
+        keep = _opening(edges, slit_of, step, len(target[reached]), inside.edges[use], opening[use], result.vertices, n)
+    slit_faces = faces[reached][np.unique(slit_of[keep])]
+    if not keep.any():
+        return none
+    return np.unique(np.sort(edges[keep], axis=1), axis=0), np.unique(result.face_island[slit_faces])
+
+
+def _opening(edges, slit_of, step, n_slits: int, graph_edges, opening, V, n: int) -> np.ndarray:
+    """Which steps (k,) of the slits ``edges`` (k, 2; each of slit ``slit_of``, ``step``
+    edges from its tip) to cut, given the predicted ``opening`` of the ``graph_edges``:
+    from its tip, a slit loses the edges whose banks would fold over each other (it ends
+    where it starts to open); a slit that would still fold along more than
+    ``_FOLDED_SHARE`` of its length is not cut at all."""
+    keys = pair_keys(graph_edges[:, 0], graph_edges[:, 1], n)
+    by_key = np.argsort(keys)
+    at = by_key[np.searchsorted(keys, pair_keys(edges[:, 0], edges[:, 1], n), sorter=by_key)]
+    o = opening[at]
+    most = np.zeros(n_slits)
+    np.maximum.at(most, slit_of, o)
+    folds = o < _OPENS * most[slit_of]
+    opens_from = np.full(n_slits, np.iinfo(np.int64).max)
+    np.minimum.at(opens_from, slit_of[~folds], step[~folds])
+    keep = step >= opens_from[slit_of]
+    length = np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1)
+    kept = np.bincount(slit_of, np.where(keep, length, 0.0), minlength=n_slits)
+    folded = np.bincount(slit_of, np.where(keep & folds, length, 0.0), minlength=n_slits)
+    if _DEBUG:
+        print("   slits: kept length", np.round(kept, 3), "folded share", np.round(safe_divide(folded, kept), 2))
+    return keep & (folded <= _FOLDED_SHARE * kept)[slit_of]
 
 
 def _charted(result: Parametrization, owners: _Owners, cut: np.ndarray, budget: float) -> list[SolverWarning]:

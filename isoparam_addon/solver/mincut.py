@@ -25,7 +25,7 @@ from .geometry import TINY, safe_divide
 from .islands import first_rows
 from .mesh import HalfEdges, pair_keys
 
-__all__ = ["FaceGraph", "face_graph", "minimum_cut", "source_side"]
+__all__ = ["FaceGraph", "face_graph", "minimum_cut", "source_side", "without_chips"]
 
 _CREASE = np.pi / 2  # a crease this sharp (angle between the face normals) or sharper ...
 _CREASE_COST = 0.25  # ... costs this much of its length to cut
@@ -206,3 +206,47 @@ def _flow_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.nda
     side = np.zeros(k + 2, dtype=bool)
     side[reach] = True
     return node & side[index]
+
+
+def without_chips(graph: FaceGraph, cut: np.ndarray, seeds: np.ndarray | None = None, fewest=0) -> np.ndarray:
+    """``cut`` (k, 2 vertex pairs) less the edges of ``graph`` that only bound chips:
+    pieces of the cut graph that hold none of the ``seeds`` faces (what the cut is to
+    part) and fewer than ``fewest`` faces (a number, or per face (m,): a piece's is the
+    most of its faces'). Each chip joins the piece it shares most cut
+    length with (a chip beside a chip joins it first), so that a cut parts its island
+    into the pieces it is for, and nothing else. Edges of ``cut`` that are not in
+    ``graph`` stay."""
+    m = graph.n_faces
+    if not len(cut) or not len(graph.f):
+        return cut
+    n = int(max(graph.edges.max(), cut.max())) + 1
+    keys = pair_keys(cut[:, 0], cut[:, 1], n)
+    edge_keys = pair_keys(graph.edges[:, 0], graph.edges[:, 1], n)
+    crossed = np.isin(edge_keys, keys)
+    outside = cut[~np.isin(keys, edge_keys)]
+    for _ in range(4):  # a chip beside a chip joins it, then the pair joins a piece
+        joined = ~crossed
+        G = sp.coo_matrix((np.ones(int(joined.sum())), (graph.f[joined], graph.g[joined])), shape=(m, m))
+        _, piece = csgraph.connected_components(G, directed=False)
+        least = np.zeros(m)
+        np.maximum.at(least, piece, np.broadcast_to(np.asarray(fewest, dtype=np.float64), (m,)))
+        held = np.bincount(piece, minlength=m) >= np.maximum(least, 1.0)
+        if seeds is not None:
+            held &= least > 0
+            held[piece[seeds]] = True
+        chip = ~held[piece[graph.f]] | ~held[piece[graph.g]]
+        chip &= crossed & (piece[graph.f] != piece[graph.g])
+        if not chip.any():
+            break
+        # each chip's longest cut boundary with another piece is opened
+        small = np.where(~held[piece[graph.f]], piece[graph.f], piece[graph.g])
+        other = np.where(~held[piece[graph.f]], piece[graph.g], piece[graph.f])
+        e = np.flatnonzero(chip)
+        key = pair_keys(small[e], other[e], m, ordered=True)
+        pair, inverse = np.unique(key, return_inverse=True)
+        length = np.bincount(inverse.ravel(), graph.cost[e], minlength=len(pair))
+        owner = pair // m
+        order = np.lexsort((pair, -length, owner))
+        first = order[np.unique(owner[order], return_index=True)[1]]  # per chip, its longest boundary
+        crossed[e[np.isin(key, pair[first])]] = False
+    return np.vstack([outside, np.unique(graph.edges[crossed], axis=0).reshape(-1, 2)])

@@ -155,8 +155,11 @@ def _four_steps(X, topo: Topology, islands: Islands, options: Options, plan, clo
 def _started(corner_uv: np.ndarray, topo: Topology, islands: Islands):
     """The layout (n, 2) over the split vertices from corner UVs (m, 3, 2) given to go on
     from, and stand-ins for what the four steps would have said (nothing)."""
-    Y = np.zeros((len(topo.vertex_of), 2))
-    Y[topo.corner_vertex.ravel()] = np.asarray(corner_uv, dtype=np.float64).reshape(-1, 2)
+    # a vertex whose corners disagree (the banks of a cut glued back) starts at their mean
+    corner = topo.corner_vertex.ravel()
+    uv = np.asarray(corner_uv, dtype=np.float64).reshape(-1, 2)
+    count = np.maximum(np.bincount(corner, minlength=len(topo.vertex_of)), 1)
+    Y = np.stack([np.bincount(corner, uv[:, c], minlength=len(topo.vertex_of)) / count for c in range(2)], axis=1)
     k = islands.n
     emb = Embedding(Y, np.zeros((k, 2)), np.ones(k, dtype=bool), np.zeros(k), 0)
     none = np.zeros(0, dtype=np.int64)

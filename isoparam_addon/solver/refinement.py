@@ -56,6 +56,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ._parallel import solve_columns
+from .contact import Contact, Near
 from .geometry import TINY, conformal_parts, safe_divide, signed_double_areas, triangles
 from .islands import Islands, Labelled
 from .mesh import unique_edges
@@ -66,6 +67,7 @@ from .seeds import lscm, tutte
 __all__ = ["FaceFrames", "Proxy", "Refinement", "quadratic_proxy", "refine", "slim_weights", "unfolded"]
 
 _MEMORY = 8  # L-BFGS pairs
+_CLEAR_PRICE = 1.5  # a start that does not overlap itself replaces one that does up to this much energy
 _HANDOVER = 0.25  # once the islands still descending hold at most this share of the rows: own factor
 _COLLAPSED = 1e-6  # a seed face with less UV area than this times its 3D area is crushed
 _WINDOW = 5  # iterations over which the stopping test measures the decrease
@@ -376,25 +378,41 @@ def unfolded(X, faces, uv, islands: Islands, he_twin, order=None) -> Refinement:
 
 
 def _start(
-    X, faces, x, he_twin, islands: Islands, frames: FaceFrames, per_face: Labelled, pinned, order=None, poor=None
+    X,
+    faces,
+    x,
+    he_twin,
+    islands: Islands,
+    frames: FaceFrames,
+    per_face: Labelled,
+    pinned,
+    order=None,
+    poor=None,
+    crossed=None,
 ):
     """The start of every island: its seed ``x`` (n, 2), unless the seed folds or crushes a
-    face (UV area below ``_COLLAPSED`` times its 3D area) and the island has no pins
-    (``poor`` (n_islands,) bool, if given, names the islands instead of this rule); then
-    the lowest-energy fold-free layout among the seed, a conformal map and (where the
-    conformal map folds or crushes too) a Tutte embedding.
+    face (UV area below ``_COLLAPSED`` times its 3D area), or overlaps itself (``crossed``:
+    a function of a layout, per island whether its boundary crosses itself, if given),
+    and the island has no pins (``poor`` (n_islands,) bool, if given, names the islands
+    instead of this rule); then the lowest-energy layout that neither folds nor overlaps
+    itself among the seed, a conformal map and (where the conformal map fails too) a
+    Tutte embedding (one-to-one: Tutte 1963, Floater 2003).
 
     Returns the start, the islands that still fold, and those started from a conformal
     map and from a Tutte embedding, (n_islands,) bool each.
     """
     area2 = 2.0 * frames.area
     det = signed_double_areas(x, faces) / area2
+    never = np.zeros(islands.n, dtype=bool)
+    overlapping = never if crossed is None else crossed(x)
     if poor is None:
-        poor = (per_face.sum(det <= _COLLAPSED) > 0) & (np.bincount(islands.label, pinned, minlength=islands.n) == 0)
+        poor = (per_face.sum(det <= _COLLAPSED) > 0) | overlapping
+        poor &= np.bincount(islands.label, pinned, minlength=islands.n) == 0
     none = np.zeros(islands.n, dtype=bool)
     if not poor.any():
         return x, per_face.sum(det <= 0) > 0, none, none
     best = np.where(per_face.sum(det <= 0) > 0, np.inf, _island_energy(frames, per_face, x))
+    best_overlaps = overlapping | ~np.isfinite(best)  # (a folded seed is worse than any that unfolds)
     chosen = np.zeros(islands.n, dtype=np.int64)  # 0: the seed, 1: conformal, 2: Tutte
     candidates = [x]
     want = poor
@@ -411,11 +429,16 @@ def _start(
             break
         d = signed_double_areas(y, faces) / area2
         folded = per_face.sum(d <= 0) > 0
+        overlaps = never if crossed is None else crossed(y) & want
         e = np.where(want & ~folded, _island_energy(frames, per_face, y), np.inf)
-        better = e < best
+        # (a layout that does not overlap itself wins unless it starts much farther away)
+        clear = (overlaps < best_overlaps) & (e < _CLEAR_PRICE * best)
+        better = np.isfinite(e) & (clear | ((overlaps == best_overlaps) & (e < best)))
         best, chosen = np.where(better, e, best), np.where(better, k, chosen)
+        best_overlaps = np.where(better, overlaps, best_overlaps)
         candidates.append(y)
-        want = want & (folded | (per_face.sum(d <= _COLLAPSED) > 0))  # a Tutte embedding only where needed
+        # a Tutte embedding only where the conformal map folds, crushes or overlaps itself
+        want = want & (folded | (per_face.sum(d <= _COLLAPSED) > 0) | overlaps)
     x = candidates[0]
     for k in range(1, len(candidates)):
         x = np.where((chosen == k)[islands.label][:, None], candidates[k], x)
@@ -435,8 +458,11 @@ class _Descent:
     """The state of one refinement: the layout, its Jacobians, per-island energies and
     gradient, which islands still descend, the L-BFGS memory and the proxy."""
 
-    def __init__(self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol, settle, out: Refinement):
+    def __init__(
+        self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol, settle, out: Refinement, contact=None
+    ):
         self.X, self.faces, self.islands, self.pinned, self.tol, self.out = X, faces, islands, pinned, tol, out
+        self.contact: Contact | None = contact
         self.settle = np.full(islands.n, np.inf) if settle is None else settle  # (see converged)
         self.moves: list[np.ndarray] = []  # per face, log area ratio over the last iterations (to settle)
         self.proxy = proxy
@@ -454,8 +480,17 @@ class _Descent:
     def begin(self, active: np.ndarray) -> None:
         """Start descending the ``active`` islands (the others are left as they are)."""
         self.set_active(active)
+        if self.contact is not None:
+            self.x = self.contact.separate(self.x, active & ~self.pinned_island())
+            # no contact where the boundary crosses itself at the start (it can only be left
+            # so), nor where pins shape the island (their copies of a seam vertex may meet)
+            self.no_contact = self.contact.crossing(self.x) | self.pinned_island()
+        else:
+            self.no_contact = np.ones(self.islands.n, dtype=bool)
         self.J = self.frames.jacobians(self.x)
         self.E, self.G = self.energies(self.J)
+        self.Eb, self.gb = self.barrier(self.x, self.near(None, None, active))
+        self.E = self.E + self.Eb
         self.trace = [self.E]  # per island, the start's energy and each ARAP step's
         self.island_area = self.per_face.sum(self.area)
         # a start far from isometric (crushed faces) descends with the re-weighted proxy; a
@@ -463,6 +498,32 @@ class _Descent:
         # cotangent one, whose descent neither needs the re-weighting nor carries rounding
         # of the start as far
         self.reweighting = active & (self.E > _CRUSHED * 4.0 * self.island_area)
+
+    def pinned_island(self) -> np.ndarray:
+        """Islands (n_islands,) bool with a pinned vertex (their layout is the pins')."""
+        return np.bincount(self.islands.label, self.pinned, minlength=self.islands.n) > 0
+
+    def near(self, p, t, which: np.ndarray) -> Near:
+        """The boundary pairs of the islands ``which`` that may touch on a step ``t`` (per
+        island) along ``p`` (n, 2) from here (None: no step)."""
+        if self.contact is None:
+            return Near.none()
+        reach = 0.0 if p is None else self.contact.reach(p, t, self.islands.n)
+        return self.contact.near(self.x, which & ~self.no_contact, reach)
+
+    def barrier(self, x: np.ndarray, near: Near):
+        """Per island the contact barrier of the pairs ``near`` in ``x`` (0 without
+        contact), and its gradient (n, 2)."""
+        if self.contact is None:
+            return np.zeros(self.islands.n), np.zeros_like(x)
+        return self.contact.energy(x, near, self.islands.n)
+
+    def crossing(self, x: np.ndarray, near: Near) -> np.ndarray:
+        """Islands (n_islands,) bool whose boundary crosses itself in ``x`` (pairs
+        ``near``) and did not at the start."""
+        if self.contact is None:
+            return np.zeros(self.islands.n, dtype=bool)
+        return self.contact.crossed(x, near, self.islands.n)
 
     def set_active(self, active: np.ndarray) -> None:
         self.active = active
@@ -482,6 +543,8 @@ class _Descent:
         if not self.every_face_live:
             G = [np.where(self.live_face, Gk, 0.0) for Gk in G]
         g = np.stack([fr.DxT @ G[0] + fr.DyT @ G[1], fr.DxT @ G[2] + fr.DyT @ G[3]], axis=1)
+        if self.contact is not None:
+            g += self.gb
         g[self.pinned] = 0.0
         return g
 
@@ -549,6 +612,8 @@ class _Descent:
         Jt: tuple | None = None
         Gt: list = []
         Et = self.E
+        gb = self.gb
+        near = self.near(p, t, searching)
         while searching.any():
             f = None if Jt is None else per_face.members(searching)
             if Jt is None or f is None or 2 * len(f) > len(self.area):
@@ -563,7 +628,14 @@ class _Descent:
                 for k in range(4):
                     Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
                 Et = np.where(searching, np.bincount(per_face.label[f], ef, minlength=self.islands.n), Et)
-            searching &= ~(Et <= self.E + 1e-4 * t * slope)
+            crossed = np.zeros(self.islands.n, dtype=bool)
+            if self.contact is not None:
+                xt = self.x + self.islands.spread(np.where(searching, t, 0.0)) * p
+                Eb, gb_t = self.barrier(xt, near)
+                Et = np.where(searching, Et + Eb, Et)
+                gb = np.where(self.islands.spread(searching), gb_t, gb)
+                crossed = self.crossing(xt, near) & searching
+            searching &= ~(Et <= self.E + 1e-4 * t * slope) | crossed
             t[searching] *= 0.5
             gone = searching & (t < 1e-12)
             t[gone] = 0.0
@@ -573,12 +645,14 @@ class _Descent:
         # every island that moved was last evaluated at its final step; the others stay
         still = per_face.expand(t == 0)
         Jt = tuple(np.where(still, j, jt) for j, jt in zip(self.J, Jt))
+        self.gb_next = np.where(self.islands.spread(t == 0), self.gb, gb)
         return t, Jt, np.where(t == 0, self.E, Et), Gt, dJ
 
     def step(self, p, t, Jt, Et, Gt, dJ, g) -> np.ndarray:
         """Move to the step found, learn its curvature pair; returns the new gradient."""
         islands = self.islands
         x_new = self.x + islands.spread(t) * p
+        self.gb = self.gb_next
         g_new = self.gradient(Gt)  # rows of islands that did not move are not used again
         s_k, y_k = x_new - self.x, g_new - g
         sy, ss = islands.dot(s_k, y_k), islands.dot(s_k, s_k)
@@ -629,6 +703,11 @@ def _local_global(desc: _Descent, steps: int) -> None:
             Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(desc.J, dJ))
             Et, Gt = desc.energies(Jt)
             folds = per_face.sum((Jt[0] * Jt[3] - Jt[1] * Jt[2]) <= 0) > 0
+            xt = desc.x + islands.spread(t) * p
+            near = desc.near(p, t, t > 0)
+            Eb, gb = desc.barrier(xt, near)
+            Et = Et + Eb
+            folds |= desc.crossing(xt, near)
             worse = (t > 0) & (folds | ~(Et < desc.E))
             if not (worse & far).any():
                 break
@@ -638,6 +717,8 @@ def _local_global(desc: _Descent, steps: int) -> None:
             break
         dropped = Et < (1.0 - _SLIM_DROP) * desc.E
         desc.x = np.where(islands.spread(take), desc.x + islands.spread(t) * p, desc.x)
+        desc.gb = np.where(islands.spread(take), gb, desc.gb)
+        desc.Eb = np.where(take, Eb, desc.Eb)
         desc.J = tuple(np.where(per_face.expand(take), jt, j) for jt, j in zip(Jt, desc.J))
         desc.G = [np.where(per_face.expand(take), gt, gk) for gt, gk in zip(Gt, desc.G)]
         desc.E = np.where(take, Et, desc.E)
@@ -726,6 +807,7 @@ def refine(
     order: np.ndarray | None = None,
     proxy: Proxy | None = None,
     carry: _Carry | None = None,
+    no_overlaps: bool = True,
 ) -> Refinement:
     """Lower the symmetric Dirichlet energy of a layout without folding it.
 
@@ -760,6 +842,9 @@ def refine(
     carry : _Carry, optional
         The state of the refinement these islands are handed over from: the descent
         goes on where it was, with no new start and no ARAP.
+    no_overlaps : bool
+        Keep every island's boundary from crossing itself (see :mod:`.contact`): an
+        island whose start does not overlap itself never comes to.
 
     Returns
     -------
@@ -778,12 +863,14 @@ def refine(
     )
     per_face = Islands.labelled(islands.label[faces[:, 0]], k)
     x, stuck = out.uv, none
+    contact = Contact.of(X, faces, islands.label, k, proxy.frames.area) if no_overlaps else None
     if carry is None:
+        crossed = None if contact is None else contact.crossing
         x, stuck, out.restarted_conformal, out.restarted_tutte = _start(
-            X, faces, out.uv, he_twin, islands, proxy.frames, per_face, pinned, order
+            X, faces, out.uv, he_twin, islands, proxy.frames, per_face, pinned, order, crossed=crossed
         )
     # islands that still fold, and islands with nothing free, are left as they are
-    d = _Descent(X, faces, x, islands, pinned, proxy, tol, settle, out)
+    d = _Descent(X, faces, x, islands, pinned, proxy, tol, settle, out, contact)
     d.begin(~stuck & (np.bincount(islands.label, ~pinned, minlength=k) > 0))
     if carry is None:
         _local_global(d, arap)
@@ -825,12 +912,13 @@ def _leave_endless(d: _Descent) -> None:
         return
     d.set_active(d.active & ~endless)
     d.E, d.G = d.energies(d.J)
+    d.Eb, d.gb = d.barrier(d.x, d.near(None, None, d.active))
+    d.E = d.E + d.Eb
     d.trace = [np.where(endless, 0.0, e) for e in d.trace]
 
 
 def _finish(d: _Descent, out: Refinement, t0: float) -> Refinement:
     out.uv = d.x
-    out.island_energy = d.E
     out.island_area = d.per_face.sum(np.where(d.live_face, d.area, 0.0))
     a, b, c, e = d.frames.jacobians(d.x)  # from x: a hand-over leaves J behind
     fro, det = a * a + b * b + c * c + e * e, a * e - b * c
@@ -840,6 +928,7 @@ def _finish(d: _Descent, out: Refinement, t0: float) -> Refinement:
         d.per_face.sum(np.where(d.live_face, d.area * fro, 0.0)),
         d.per_face.sum(np.where(d.live_face, d.area * inv, 0.0)),
     )
+    out.island_energy = out.island_parts[0] + out.island_parts[1]  # (the barrier left out)
     out.folded = int((signed_double_areas(d.x, d.faces) <= 0).sum())
     out.seconds = time.perf_counter() - t0
     return out

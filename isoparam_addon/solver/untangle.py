@@ -22,7 +22,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from .islands import first_rows
-from .mincut import FaceGraph, face_graph, minimum_cut
+from .mincut import FaceGraph, face_graph, minimum_cut, without_chips
 from .options import Options, Problem
 from .progress import geometric, stage
 from .report import cut_apart
@@ -82,6 +82,15 @@ def separating_cuts(
     area = found.pair_area
     pair_graph = sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(m, m)).tocsr()
     group = csgraph.connected_components(pair_graph, directed=False)[1][i]
+    # per island, its largest group of overlaps alone (by area): a small group beside it
+    # would be parted by a cut round a few faces; it is parted in a round of its own
+    island = result.face_island[i]
+    group_area = np.bincount(group, area)
+    order = np.lexsort((group, -group_area[group], island))
+    largest = group[order[np.unique(island[order], return_index=True)[1]]]
+    mine = np.isin(group, largest)
+    i, j, area, group = i[mine], j[mine], area[mine], group[mine]
+    pair_graph = sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(m, m)).tocsr()
     order = np.lexsort((-area, group))
     best = order[np.unique(group[order], return_index=True)[1]]  # each group's largest overlap
     hops = csgraph.dijkstra(pair_graph, directed=False, unweighted=True, indices=i[best], min_only=True)
@@ -90,7 +99,7 @@ def separating_cuts(
     source, sink = _sides(graph, reached & (parity == 0), reached & (parity == 1))
     # each side whole: a face of one side cut off inside the other would be a chip
     source, sink = _holding(graph, source, i[best]), _holding(graph, sink, j[best])
-    return minimum_cut(graph, source, sink)
+    return without_chips(graph, minimum_cut(graph, source, sink), np.concatenate([i[best], j[best]]))
 
 
 def _holding(graph: FaceGraph, faces: np.ndarray, seeds: np.ndarray) -> np.ndarray:
@@ -115,3 +124,4 @@ def _sides(graph: FaceGraph, layer: np.ndarray, other: np.ndarray):
     near = csgraph.dijkstra(G, directed=False, indices=np.flatnonzero(layer), min_only=True)
     far = csgraph.dijkstra(G, directed=False, indices=np.flatnonzero(other), min_only=True)
     return layer | (near < (1.0 - _BAND) * far), other | (far < (1.0 - _BAND) * near)
+

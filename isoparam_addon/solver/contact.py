@@ -1,0 +1,219 @@
+"""Beyond the paper: an island's boundary never crosses itself while it is refined.
+
+A layout without folds covers every point of the plane once exactly when its boundary is
+a simple curve (see :mod:`.overlap`). The symmetric Dirichlet energy does not see the
+boundary: where a slit's banks are pressed together, or a flap is pulled over the rest,
+its minimum lies where the layout overlaps itself. Smith & Schaefer ("Bijective
+parameterization with free boundaries", 2015) add a barrier between the boundary's
+vertices and edges to the energy; here it is the log barrier of incremental potential
+contact (Li et al., "Incremental potential contact", 2020),
+
+    b(d) = -(d - g)^2 ln(d / g)    for d < g,    0 beyond,
+
+of the distance d between a boundary vertex and a boundary edge of its island that does
+not hold it, with g (the gap) half the island's mean boundary edge: smooth, zero
+until two parts of the boundary come that close, infinite at contact. Each island's
+barrier is scaled to about one face's energy at a tenth of the gap, so that it is a
+wall, not a force felt across the island. A step that would carry a vertex across an edge
+in one go (jumping the barrier) is refused by a crossing test at its end.
+
+Banks of a cut laid out as one (a layout cut further goes on from where it was) start in
+contact: they are pushed a thousandth of an edge apart first (:meth:`Contact.separate`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import safe_divide
+from .mesh import HalfEdges
+from .overlap import _orient, _pairs_in_cells
+
+__all__ = ["Contact", "Near"]
+
+_GAP = 0.5  # the barrier starts this share of the island's mean boundary edge away
+_STIFFNESS = 1.0  # the barrier's scale, in mean face energies at the gap over its square
+_APART = 1e-3  # banks that start in contact are pushed this share of an edge apart
+
+
+@dataclass(frozen=True)
+class Near:
+    """Parts of a boundary that may touch in a step: pairs of edges (``first``,
+    ``second``: indices into :attr:`Contact.edges`, sharing no vertex) and (vertex, edge)
+    pairs (``vertex``, ``edge``)."""
+
+    first: np.ndarray
+    second: np.ndarray
+    vertex: np.ndarray
+    edge: np.ndarray
+
+    @classmethod
+    def none(cls) -> Near:
+        empty = np.zeros(0, dtype=np.int64)
+        return cls(empty, empty, empty, empty)
+
+
+@dataclass
+class Contact:
+    """The boundary of every island of a layout, and its barrier (module docstring).
+
+    Attributes
+    ----------
+    edges : (k, 2) int64
+        Boundary edges (vertex pairs, in the order of their face: the island to the left).
+    edge_island : (k,) int64
+    gap : (n_islands,) float
+        Distance below which the barrier acts, per island.
+    weight : (n_islands,) float
+        The barrier's scale per island.
+    """
+
+    edges: np.ndarray
+    edge_island: np.ndarray
+    gap: np.ndarray
+    weight: np.ndarray
+    after: np.ndarray  # (n,) the next vertex along the boundary (-1 off it)
+    before: np.ndarray  # (n,) the previous one
+
+    @classmethod
+    def of(cls, X: np.ndarray, faces: np.ndarray, vertex_island: np.ndarray, n_islands: int, area: np.ndarray):
+        """The contact of the islands of ``faces`` (m, 3) over ``X`` (n, 3), each of whose
+        vertices is in island ``vertex_island`` (n,); ``area`` (m,) the faces' 3D areas."""
+        he = HalfEdges(faces, len(X))
+        h = np.flatnonzero(he.edge_count[he.edge] == 1)
+        f, k = h // 3, h % 3
+        edges = np.stack([faces[f, k], faces[f, (k + 1) % 3]], axis=1)
+        island = vertex_island[edges[:, 0]]
+        length = np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
+        count = np.bincount(island, minlength=n_islands)
+        mean = safe_divide(np.bincount(island, length, minlength=n_islands), count)
+        gap = _GAP * mean
+        face_island = vertex_island[faces[:, 0]]
+        mean_area = safe_divide(
+            np.bincount(face_island, area, minlength=n_islands), np.bincount(face_island, minlength=n_islands)
+        )
+        weight = _STIFFNESS * safe_divide(mean_area, gap * gap)
+        after = np.full(len(X), -1, dtype=np.int64)
+        before = np.full(len(X), -1, dtype=np.int64)
+        after[edges[:, 0]], before[edges[:, 1]] = edges[:, 1], edges[:, 0]
+        return cls(edges, island, gap, weight, after, before)
+
+    def near(self, x: np.ndarray, which: np.ndarray, reach: np.ndarray | float = 0.0) -> Near:
+        """The parts of the boundary of the islands ``which`` (n_islands,) bool that may
+        come within their gap of each other while every vertex moves by at most ``reach``
+        (per island) from ``x`` (n, 2): pairs of boundary edges whose boxes, grown by half
+        the gap and the reach, meet (one grid pass; a step's trials then look at these
+        alone)."""
+        on = np.flatnonzero(which[self.edge_island])
+        if not len(on):
+            return Near.none()
+        edges, island = self.edges[on], self.edge_island[on]
+        a, b = x[edges[:, 0]], x[edges[:, 1]]
+        pad = (0.5 * self.gap + np.broadcast_to(reach, self.gap.shape))[island][:, None]
+        lo, hi = np.minimum(a, b) - pad, np.maximum(a, b) + pad
+        cell = float(max(2.0 * np.median(np.max(hi - lo, axis=1)), 1e-300))
+        i, j = _pairs_in_cells(lo, hi, island, cell)
+        i, j = on[i], on[j]
+        E = self.edges
+        shared = (E[i, 0] == E[j, 0]) | (E[i, 0] == E[j, 1]) | (E[i, 1] == E[j, 0]) | (E[i, 1] == E[j, 1])
+        # each boundary vertex starts one edge: a vertex near an edge is an end of an edge near it
+        v = np.concatenate([E[i, 0], E[i, 1], E[j, 0], E[j, 1]])
+        e = np.concatenate([j, j, i, i])
+        # (nor an edge beside the vertex's own: a sharp corner of the boundary is no contact)
+        a, b = E[e, 0], E[e, 1]
+        beside = (a == self.after[v]) | (a == self.before[v]) | (b == self.after[v]) | (b == self.before[v])
+        keep = (a != v) & (b != v) & ~beside
+        key = np.unique(v[keep] * np.int64(len(E)) + e[keep])
+        return Near(i[~shared], j[~shared], key // len(E), key % len(E))
+
+    def energy(self, x: np.ndarray, near: Near, n_islands: int):
+        """Per island (n_islands,) the barrier in ``x`` (n, 2) of the pairs ``near`` (0
+        elsewhere), and its gradient (n, 2)."""
+        grad = np.zeros_like(x)
+        if not len(near.vertex):
+            return np.zeros(n_islands), grad
+        v, e = near.vertex, near.edge
+        a, b, p = x[self.edges[e, 0]], x[self.edges[e, 1]], x[v]
+        ab = b - a
+        s = np.clip(safe_divide(((p - a) * ab).sum(axis=1), (ab * ab).sum(axis=1)), 0.0, 1.0)
+        diff = p - (a + s[:, None] * ab)
+        d = np.hypot(diff[:, 0], diff[:, 1])
+        island = self.edge_island[e]
+        close = d < self.gap[island]
+        if not close.any():
+            return np.zeros(n_islands), grad
+        v, e, s, d, island = v[close], e[close], s[close], d[close], island[close]
+        u = safe_divide(diff[close], d[:, None])
+        g, w = self.gap[island], self.weight[island]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log = np.log(d / g)
+            value = -w * (d - g) ** 2 * log
+            slope = -w * (2.0 * (d - g) * log + (d - g) ** 2 / d)  # d value / d d
+        a, b = self.edges[e, 0], self.edges[e, 1]
+        n = len(x)
+        force = slope[:, None] * u
+        for c in range(2):
+            grad[:, c] = (
+                np.bincount(v, force[:, c], minlength=n)
+                - np.bincount(a, (1.0 - s) * force[:, c], minlength=n)
+                - np.bincount(b, s * force[:, c], minlength=n)
+            )
+        return np.bincount(island, value, minlength=n_islands), grad
+
+    def crossed(self, x: np.ndarray, near: Near, n_islands: int) -> np.ndarray:
+        """Per island (n_islands,) bool: islands with a pair of edges ``near`` that cross
+        in ``x`` (n, 2)."""
+        out = np.zeros(n_islands, dtype=bool)
+        if len(near.first):
+            E = self.edges
+            P, Q, R, S = x[E[near.first, 0]], x[E[near.first, 1]], x[E[near.second, 0]], x[E[near.second, 1]]
+            cross = (np.sign(_orient(P, Q, R)) * np.sign(_orient(P, Q, S)) < 0) & (
+                np.sign(_orient(R, S, P)) * np.sign(_orient(R, S, Q)) < 0
+            )
+            out[self.edge_island[near.first[cross]]] = True
+        return out
+
+    def crossing(self, x: np.ndarray) -> np.ndarray:
+        """Per island bool: islands whose boundary crosses itself in ``x`` (n, 2)."""
+        every = np.ones(len(self.gap), dtype=bool)
+        return self.crossed(x, self.near(x, every), len(self.gap))
+
+    def reach(self, p: np.ndarray, t: np.ndarray, n_islands: int) -> np.ndarray:
+        """Per island (n_islands,), the farthest a boundary vertex moves along ``p`` (n, 2)
+        with the island's step ``t``."""
+        v = self.edges[:, 0]
+        far = np.zeros(n_islands)
+        np.maximum.at(far, self.edge_island, np.hypot(p[v, 0], p[v, 1]))
+        return far * t
+
+    def separate(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """``x`` (n, 2) with the boundary vertices of islands ``which`` that lie on another
+        part of their boundary (in contact: the banks of a cut laid out as one) pushed
+        ``_APART`` of an edge into their island, away from the part they touch."""
+        near = self.near(x, which)
+        v, e = near.vertex, near.edge
+        a, b, p = x[self.edges[e, 0]], x[self.edges[e, 1]], x[v]
+        ab = b - a
+        s = np.clip(safe_divide(((p - a) * ab).sum(axis=1), (ab * ab).sum(axis=1)), 0.0, 1.0)
+        d = np.linalg.norm(p - (a + s[:, None] * ab), axis=1)
+        touching = np.unique(v[d < _APART * self.gap[self.edge_island[e]] / _GAP])
+        if not len(touching):
+            return x
+        # inward normal of a boundary vertex: its two edges turned left (island on the left)
+        a, b = self.edges[:, 0], self.edges[:, 1]
+        t = x[b] - x[a]
+        normal = np.stack([-t[:, 1], t[:, 0]], axis=1)
+        normal = safe_divide(normal, np.hypot(normal[:, 0], normal[:, 1])[:, None])
+        n = len(x)
+        out = np.stack(
+            [np.bincount(a, normal[:, c], minlength=n) + np.bincount(b, normal[:, c], minlength=n) for c in range(2)],
+            axis=1,
+        )
+        out = safe_divide(out, np.hypot(out[:, 0], out[:, 1])[:, None])
+        step = np.zeros(n)
+        island = np.zeros(n, dtype=np.int64)
+        island[a] = self.edge_island
+        step[touching] = _APART * self.gap[island[touching]] / _GAP
+        return x + step[:, None] * out
