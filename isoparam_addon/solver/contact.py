@@ -36,6 +36,18 @@ __all__ = ["Contact", "Near"]
 _GAP = 0.5  # the barrier starts this share of the island's mean boundary edge away
 _STIFFNESS = 1.0  # the barrier's scale, in mean face energies at the gap over its square
 _APART = 1e-3  # banks that start in contact are pushed this share of an edge apart
+_CLOSER = 0.9  # a pair acts once it is this much nearer than on the surface ...
+_SAME = 1e-3  # ... unless it is this near on the surface (as a share of the gap): copies of a vertex
+
+
+def _distances(x: np.ndarray, v: np.ndarray, a: np.ndarray, b: np.ndarray):
+    """Distances (p,) from points ``x[v]`` to segments ``x[a]``-``x[b]`` (rows of any
+    dimension), where along each segment the nearest point lies (p,), and the vectors
+    from it to the point (p, d)."""
+    pa, ab = x[v] - x[a], x[b] - x[a]
+    s = np.clip(safe_divide((pa * ab).sum(axis=1), (ab * ab).sum(axis=1)), 0.0, 1.0)
+    diff = pa - s[:, None] * ab
+    return np.sqrt((diff * diff).sum(axis=1)), s, diff
 
 
 @dataclass(frozen=True)
@@ -48,11 +60,12 @@ class Near:
     second: np.ndarray
     vertex: np.ndarray
     edge: np.ndarray
+    gap: np.ndarray  # per (vertex, edge) pair, the distance below which its barrier acts
 
     @classmethod
     def none(cls) -> Near:
         empty = np.zeros(0, dtype=np.int64)
-        return cls(empty, empty, empty, empty)
+        return cls(empty, empty, empty, empty, np.zeros(0))
 
 
 @dataclass
@@ -76,6 +89,7 @@ class Contact:
     weight: np.ndarray
     after: np.ndarray  # (n,) the next vertex along the boundary (-1 off it)
     before: np.ndarray  # (n,) the previous one
+    X: np.ndarray  # (n, 3) the vertices on the surface
 
     @classmethod
     def of(cls, X: np.ndarray, faces: np.ndarray, vertex_island: np.ndarray, n_islands: int, area: np.ndarray):
@@ -98,7 +112,7 @@ class Contact:
         after = np.full(len(X), -1, dtype=np.int64)
         before = np.full(len(X), -1, dtype=np.int64)
         after[edges[:, 0]], before[edges[:, 1]] = edges[:, 1], edges[:, 0]
-        return cls(edges, island, gap, weight, after, before)
+        return cls(edges, island, gap, weight, after, before, X)
 
     def near(self, x: np.ndarray, which: np.ndarray, reach: np.ndarray | float = 0.0) -> Near:
         """The parts of the boundary of the islands ``which`` (n_islands,) bool that may
@@ -126,7 +140,13 @@ class Contact:
         beside = (a == self.after[v]) | (a == self.before[v]) | (b == self.after[v]) | (b == self.before[v])
         keep = (a != v) & (b != v) & ~beside
         key = np.unique(v[keep] * np.int64(len(E)) + e[keep])
-        return Near(i[~shared], j[~shared], key // len(E), key % len(E))
+        v, e = key // len(E), key % len(E)
+        # a pair as near on the surface keeps its distance (an exact layout of a developable
+        # island is left as it is); copies of one vertex (the banks of a cut) are apart
+        gap = self.gap[self.edge_island[e]]
+        on_surface = _distances(self.X, v, E[e, 0], E[e, 1])[0]
+        gap = np.where(on_surface > _SAME * gap, np.minimum(gap, _CLOSER * on_surface), gap)
+        return Near(i[~shared], j[~shared], v, e, gap)
 
     def energy(self, x: np.ndarray, near: Near, n_islands: int):
         """Per island (n_islands,) the barrier in ``x`` (n, 2) of the pairs ``near`` (0
@@ -135,18 +155,14 @@ class Contact:
         if not len(near.vertex):
             return np.zeros(n_islands), grad
         v, e = near.vertex, near.edge
-        a, b, p = x[self.edges[e, 0]], x[self.edges[e, 1]], x[v]
-        ab = b - a
-        s = np.clip(safe_divide(((p - a) * ab).sum(axis=1), (ab * ab).sum(axis=1)), 0.0, 1.0)
-        diff = p - (a + s[:, None] * ab)
-        d = np.hypot(diff[:, 0], diff[:, 1])
+        d, s, diff = _distances(x, v, self.edges[e, 0], self.edges[e, 1])
         island = self.edge_island[e]
-        close = d < self.gap[island]
+        close = d < near.gap
         if not close.any():
             return np.zeros(n_islands), grad
         v, e, s, d, island = v[close], e[close], s[close], d[close], island[close]
         u = safe_divide(diff[close], d[:, None])
-        g, w = self.gap[island], self.weight[island]
+        g, w = near.gap[close], self.weight[island]
         with np.errstate(divide="ignore", invalid="ignore"):
             log = np.log(d / g)
             value = -w * (d - g) ** 2 * log
@@ -175,6 +191,39 @@ class Contact:
             out[self.edge_island[near.first[cross]]] = True
         return out
 
+    def first_contact(self, x: np.ndarray, p: np.ndarray, near: Near, n_islands: int) -> np.ndarray:
+        """Per island (n_islands,), the first step t > 0 along ``p`` (n, 2) from ``x`` at
+        which a boundary vertex of the pairs ``near`` meets its edge (inf if none does): the
+        positive roots of the orientation of the vertex against the moving edge, a
+        quadratic in t, where the vertex then lies within the edge."""
+        out = np.full(n_islands, np.inf)
+        if not len(near.vertex):
+            return out
+        v, a, b = near.vertex, self.edges[near.edge, 0], self.edges[near.edge, 1]
+        e0, e1 = x[b] - x[a], p[b] - p[a]  # the edge, and its change per unit step
+        r0, r1 = x[v] - x[a], p[v] - p[a]  # the vertex from the edge's start
+        c2 = e1[:, 0] * r1[:, 1] - e1[:, 1] * r1[:, 0]
+        c1 = e0[:, 0] * r1[:, 1] - e0[:, 1] * r1[:, 0] + e1[:, 0] * r0[:, 1] - e1[:, 1] * r0[:, 0]
+        c0 = e0[:, 0] * r0[:, 1] - e0[:, 1] * r0[:, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            disc = np.sqrt(np.maximum(c1 * c1 - 4.0 * c2 * c0, 0.0))
+            q = -0.5 * (c1 + np.where(c1 >= 0, disc, -disc))  # (the stable form of the roots)
+            roots = np.stack([q / c2, c0 / q, -c0 / c1], axis=1)
+        linear = np.abs(c2) <= 1e-14 * (np.abs(c1) + np.abs(c0))
+        roots[:, :2] = np.where(linear[:, None], np.inf, roots[:, :2])
+        roots[:, 2] = np.where(linear, roots[:, 2], np.inf)
+        roots = np.where(np.isfinite(roots) & (roots > 0), roots, np.inf)
+        real = (c1 * c1 - 4.0 * c2 * c0 >= 0) | linear
+        roots = np.where(real[:, None], roots, np.inf)
+        # the meeting counts only where the vertex lies on the edge then
+        t = np.where(np.isfinite(roots), roots, 0.0)
+        et = e0[:, None, :] + t[:, :, None] * e1[:, None, :]
+        rt = r0[:, None, :] + t[:, :, None] * r1[:, None, :]
+        along = safe_divide((et * rt).sum(axis=2), (et * et).sum(axis=2), -1.0)
+        hit = np.where(np.isfinite(roots) & (along >= 0.0) & (along <= 1.0), roots, np.inf).min(axis=1)
+        np.minimum.at(out, self.edge_island[near.edge], hit)
+        return out
+
     def crossing(self, x: np.ndarray) -> np.ndarray:
         """Per island bool: islands whose boundary crosses itself in ``x`` (n, 2)."""
         every = np.ones(len(self.gap), dtype=bool)
@@ -194,10 +243,7 @@ class Contact:
         ``_APART`` of an edge into their island, away from the part they touch."""
         near = self.near(x, which)
         v, e = near.vertex, near.edge
-        a, b, p = x[self.edges[e, 0]], x[self.edges[e, 1]], x[v]
-        ab = b - a
-        s = np.clip(safe_divide(((p - a) * ab).sum(axis=1), (ab * ab).sum(axis=1)), 0.0, 1.0)
-        d = np.linalg.norm(p - (a + s[:, None] * ab), axis=1)
+        d = _distances(x, v, self.edges[e, 0], self.edges[e, 1])[0]
         touching = np.unique(v[d < _APART * self.gap[self.edge_island[e]] / _GAP])
         if not len(touching):
             return x

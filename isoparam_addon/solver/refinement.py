@@ -511,6 +511,12 @@ class _Descent:
         reach = 0.0 if p is None else self.contact.reach(p, t, self.islands.n)
         return self.contact.near(self.x, which & ~self.no_contact, reach)
 
+    def first_contact(self, p: np.ndarray, near: Near) -> np.ndarray:
+        """Per island, the first step along ``p`` at which its boundary touches itself."""
+        if self.contact is None:
+            return np.full(self.islands.n, np.inf)
+        return self.contact.first_contact(self.x, p, near, self.islands.n)
+
     def barrier(self, x: np.ndarray, near: Near):
         """Per island the contact barrier of the pairs ``near`` in ``x`` (0 without
         contact), and its gradient (n, 2)."""
@@ -614,6 +620,7 @@ class _Descent:
         Et = self.E
         gb = self.gb
         near = self.near(p, t, searching)
+        t = np.minimum(t, 0.9 * self.first_contact(p, near))  # (no boundary crosses on the way)
         while searching.any():
             f = None if Jt is None else per_face.members(searching)
             if Jt is None or f is None or 2 * len(f) > len(self.area):
@@ -703,8 +710,9 @@ def _local_global(desc: _Descent, steps: int) -> None:
             Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(desc.J, dJ))
             Et, Gt = desc.energies(Jt)
             folds = per_face.sum((Jt[0] * Jt[3] - Jt[1] * Jt[2]) <= 0) > 0
-            xt = desc.x + islands.spread(t) * p
             near = desc.near(p, t, t > 0)
+            t = np.minimum(t, 0.9 * desc.first_contact(p, near))
+            xt = desc.x + islands.spread(t) * p
             Eb, gb = desc.barrier(xt, near)
             Et = Et + Eb
             folds |= desc.crossing(xt, near)
