@@ -164,7 +164,8 @@ def test_a_lone_seam_edge_is_not_where_a_path_starts():
 
 def test_every_island_cut_open_gets_its_own_extra_cuts():
     # two closed boxes of different sizes in one mesh: each island is tried, kept and
-    # stopped on its own (measured: 0.268 -> 0.0092 and 0.273 -> 8e-14, a net of the cube)
+    # stopped on its own (measured: 0.268 -> 0.018 and 0.273 -> 3e-4: the first box's net
+    # would overlap itself laid out flat, and is kept from it)
     (V1, F1, D1), (V2, F2, D2) = ex.box(6), ex.box(4)
     V = np.vstack([V1, V2 + [5.0, 0.0, 0.0]])
     F, D = np.vstack([F1, F2 + len(V1)]), np.vstack([D1, D2 + len(V1)])
@@ -172,7 +173,7 @@ def test_every_island_cut_open_gets_its_own_extra_cuts():
     more = parametrize(V, F, refine=100, inner_edges=D, extra_cuts=6)
     assert more.n_islands == 2 and sorted(more.cut_islands.tolist()) == [0, 1]
     before, after = island_distortion(V, F, short), island_distortion(V, F, more)
-    assert (after < 0.05 * before).all()
+    assert (after < 0.1 * before).all()
     first = (more.cut_edges < len(V1)).all(axis=1)  # cut edges of the first box
     assert first.sum() > (short.cut_edges < len(V1)).all(axis=1).sum()
     assert (~first).sum() > (~(short.cut_edges < len(V1)).all(axis=1)).sum()

@@ -16,7 +16,7 @@ CASES = {  # a mesh and options that take each path of a solve (charts, overlap 
     "sphere band, refinement 0": (ex.sphere_band, dict(charts=False, refine=0, unfold=True)),
 }
 ONE_OF_EACH_PATH = {  # a stage each case must pass through
-    "spot, charts": "charting, round 2, refinement",
+    "spot, charts": "placing cuts",
     "ribbon, overlap cuts": "overlap cuts, refinement",
     "box, extra cuts": "extra cut 1, refinement",
     "sphere band, refinement 0": "refinement",

@@ -621,25 +621,3 @@ def test_a_seed_whose_energy_overflows_is_repaired_by_arap():
     assert r.energy[0] == np.inf and np.isfinite(r.energy[1:]).all()
     assert r.energy[-1] == pytest.approx(4.0, abs=1e-6)  # isometric: the triangle is planar
     np.testing.assert_allclose(r.uv[2], [0.5, 0.3], atol=1e-5)
-
-
-def test_an_island_to_settle_stops_closer_to_its_converged_layout():
-    # charting reads where to cut from the layout where it is most squeezed, which converges
-    # slowest: an island that must settle goes on until its layout stops moving
-    from isoparam_addon.solver.geometry import corner_signed_areas, face_areas
-    from isoparam_addon.solver.options import Options, Problem
-    from isoparam_addon.solver.pipeline import solve
-
-    V, F = ex.suzanne_closed()
-    m, a3 = len(F), face_areas(V, F)
-
-    def log_area_ratio(tol, settle):
-        problem = Problem(V, F, face_tol=np.full(m, tol), settle_above=np.full(m, settle))
-        r = solve(problem, Options(refine=3000, pack=False))
-        a2 = np.abs(corner_signed_areas(r.corner_uv))
-        return np.log(a2 / a3) - np.log(a2.sum() / a3.sum()), r.stats.refine_iterations
-
-    converged, _ = log_area_ratio(1e-10, np.inf)
-    (by_energy, n_energy), (settled, n_settled) = log_area_ratio(1e-5, np.inf), log_area_ratio(1e-5, 4.0)
-    rms = lambda f: np.sqrt((a3 * (f - converged) ** 2).sum() / a3.sum())  # noqa: E731
-    assert n_settled > n_energy and rms(settled) < 0.75 * rms(by_energy)

@@ -39,8 +39,7 @@ class Options:
         paper's layout as it is. With refinement, such islands are always restarted so.
     refine_tol : float
         The refinement stops an island once its energy fell by less than this (relative)
-        over 5 iterations. Charting (``charts``) refines the islands it cuts to 1e-5: it
-        chooses its cuts from the refined layout (see :mod:`.charts`).
+        over 5 iterations.
     extra_cuts : int
         Islands that had to be cut automatically (closed, handles, holes) get up to this
         many more cuts while they help (see :mod:`.cuts`). 0: the shortest cut that
@@ -96,14 +95,6 @@ class Problem:
     start : (m, 3, 2) float or None
         A fold-free layout to refine instead of the four steps' (a search that cut a solved
         layout further goes on from it), mesh units, per face corner.
-    face_tol : (m,) float or None
-        Per face, a stopping tolerance of the refinement below ``Options.refine_tol``: an
-        island stops at the smallest of its faces' (charting settles the islands it cuts,
-        and only those).
-    settle_above : (m,) float or None
-        Per face, an energy per area above which the refinement stops an island only once
-        its layout has stopped moving too (the smallest of its faces'; inf: never):
-        charting reads where to cut from those layouts.
     """
 
     vertices: npt.ArrayLike
@@ -112,8 +103,6 @@ class Problem:
     inner_edges: npt.ArrayLike | None = None
     pins: tuple[npt.ArrayLike, npt.ArrayLike] | None = None
     start: np.ndarray | None = None
-    face_tol: np.ndarray | None = None
-    settle_above: np.ndarray | None = None
 
     def pinned_vertices(self) -> np.ndarray | None:
         """The mesh vertices with a pinned corner, or None (no pins, or input that

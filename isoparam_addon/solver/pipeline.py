@@ -73,13 +73,6 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
         proxy = proxy.result() if options.refine else None
         clock.lap("refine")  # waiting for the proxy, if it outlasted Step 3
     order = np.concatenate([plan.free_order, plan.anchors.ravel()])
-    tol = np.full(topo.n_islands, options.refine_tol)  # per island, the smallest of its faces'
-    if problem.face_tol is not None:
-        np.minimum.at(tol, topo.face_island, problem.face_tol)
-    settle = None  # per island, the smallest of its faces'
-    if problem.settle_above is not None:
-        settle = np.full(topo.n_islands, np.inf)
-        np.minimum.at(settle, topo.face_island, problem.settle_above)
 
     def refined(seed: np.ndarray, fixed: np.ndarray | None) -> Refinement:
         return refine(
@@ -89,8 +82,7 @@ def solve(problem: Problem, options: Options, built: tuple | None = None) -> Par
             islands,
             topo.he.twin,
             iterations=options.refine,
-            tol=tol,
-            settle=settle,
+            tol=options.refine_tol,
             pinned=fixed,
             order=order,
             proxy=proxy,

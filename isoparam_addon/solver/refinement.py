@@ -32,10 +32,7 @@ search.
 **Stopping.** An island stops when its energy fell by less than ``tol`` (relative) over
 the last 5 iterations, or by less than a hundredth of that over the last one, or when no
 step along a descent direction lowers it; the
-iteration cap is a safety net, not the usual exit. An island whose layout decides
-something (where charting cuts next: ``settle``) must also have stopped moving: its
-energy can be flat while its most squeezed part, the slowest to converge, still creeps,
-and where that part stands would then depend on the iteration the energy test fired at.
+iteration cap is a safety net, not the usual exit.
 
 Islands are independent problems and are treated as such: each has its own start, ARAP
 acceptance, step length, line search, L-BFGS memory, proxy weights and stopping test
@@ -77,7 +74,6 @@ _REFRESH_DROP = 0.7  # factor the re-weighted proxy again once a far island's en
 _REFRESH_EVERY = 20  # ... or after this many iterations
 _SLIM_STEPS = 30  # at most this many SLIM steps from a start far from isometric
 _BLOCKS = 8  # the proxy's factors are kept for at most this many groups of islands
-_STILL = 1e-3  # an island to settle stops once its faces' log area ratios moved less than this (RMS) over the window
 _HALFWAY = 100  # progress: the iteration count reported as half of the refinement (it stops when converged)
 _SLIM_DROP = 0.3  # ... each lowering the energy by this much (relative)
 
@@ -405,9 +401,11 @@ def _start(
     det = signed_double_areas(x, faces) / area2
     never = np.zeros(islands.n, dtype=bool)
     overlapping = never if crossed is None else crossed(x)
+    crushed = per_face.sum(det <= _COLLAPSED) > 0
     if poor is None:
-        poor = (per_face.sum(det <= _COLLAPSED) > 0) | overlapping
-        poor &= np.bincount(islands.label, pinned, minlength=islands.n) == 0
+        poor = (crushed | overlapping) & (np.bincount(islands.label, pinned, minlength=islands.n) == 0)
+    else:
+        crushed = poor
     none = np.zeros(islands.n, dtype=bool)
     if not poor.any():
         return x, per_face.sum(det <= 0) > 0, none, none
@@ -431,9 +429,10 @@ def _start(
         folded = per_face.sum(d <= 0) > 0
         overlaps = never if crossed is None else crossed(y) & want
         e = np.where(want & ~folded, _island_energy(frames, per_face, y), np.inf)
-        # (a layout that does not overlap itself wins unless it starts much farther away)
+        # an island only overlapping itself takes a layout that does not, unless it starts
+        # much farther away; one whose seed folds or crushes takes the best that does not fold
         clear = (overlaps < best_overlaps) & (e < _CLEAR_PRICE * best)
-        better = np.isfinite(e) & (clear | ((overlaps == best_overlaps) & (e < best)))
+        better = np.isfinite(e) & (clear | (crushed & (overlaps == best_overlaps) & (e < best)))
         best, chosen = np.where(better, e, best), np.where(better, k, chosen)
         best_overlaps = np.where(better, overlaps, best_overlaps)
         candidates.append(y)
@@ -458,13 +457,9 @@ class _Descent:
     """The state of one refinement: the layout, its Jacobians, per-island energies and
     gradient, which islands still descend, the L-BFGS memory and the proxy."""
 
-    def __init__(
-        self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol, settle, out: Refinement, contact=None
-    ):
+    def __init__(self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol, out: Refinement, contact=None):
         self.X, self.faces, self.islands, self.pinned, self.tol, self.out = X, faces, islands, pinned, tol, out
         self.contact: Contact | None = contact
-        self.settle = np.full(islands.n, np.inf) if settle is None else settle  # (see converged)
-        self.moves: list[np.ndarray] = []  # per face, log area ratio over the last iterations (to settle)
         self.proxy = proxy
         self.frames = proxy.frames
         self.area = proxy.frames.area
@@ -763,27 +758,13 @@ def _global_step(desc: _Descent) -> np.ndarray:
 def _converged(desc: _Descent) -> None:
     """Stop the islands whose energy fell by less than ``tol`` over the last
     ``_WINDOW`` iterations, or by less than ``tol / 100`` over the last one (an island
-    that was converged when the descent began); an island above its ``settle`` energy
-    per area only once its faces' log area ratios also moved by less than ``_STILL``
-    (area-weighted RMS) over the window."""
+    that was converged when the descent began)."""
     last = desc.history[-1] if desc.history else None
     desc.history = [*desc.history, desc.E][-(_WINDOW + 1) :]
     if last is not None:
         desc.active &= ~(last - desc.E < 0.01 * desc.tol * desc.E)
-    if np.isfinite(desc.settle).any():
-        a, b, c, d = desc.J
-        desc.moves = [*desc.moves, np.log(np.abs(a * d - b * c) + TINY)][-(_WINDOW + 1) :]
     if len(desc.history) > _WINDOW:
-        stop = desc.history[0] - desc.E < desc.tol * desc.E
-        settling = desc.E > desc.settle * desc.island_area
-        if settling.any():
-            if len(desc.moves) > _WINDOW:
-                change = desc.moves[-1] - desc.moves[0]
-                rms = np.sqrt(safe_divide(desc.per_face.sum(desc.area * change * change), desc.island_area))
-                stop &= ~settling | (rms < _STILL)
-            else:
-                stop &= ~settling
-        desc.active &= ~stop
+        desc.active &= ~(desc.history[0] - desc.E < desc.tol * desc.E)
 
 
 @dataclass
@@ -797,7 +778,6 @@ class _Carry:
     refreshed_at: np.ndarray
     reweighting: np.ndarray
     weights: np.ndarray
-    moves: list
 
 
 def refine(
@@ -809,7 +789,6 @@ def refine(
     *,
     iterations: int = 1000,
     tol: float | np.ndarray = 2e-4,
-    settle: np.ndarray | None = None,
     arap: int = 10,
     pinned: np.ndarray | None = None,
     order: np.ndarray | None = None,
@@ -834,9 +813,6 @@ def refine(
     tol : float or (n_islands,) float
         An island stops when its energy fell by less than this (its own, given per
         island), relative, over the last ``_WINDOW`` iterations.
-    settle : (n_islands,) float, optional
-        Per island, an energy per area above which it stops only once its layout has
-        settled too (see :func:`_converged`); inf or None: never.
     arap : int
         ARAP steps before the descent, on islands near isometric (see
         :func:`_local_global`).
@@ -878,7 +854,7 @@ def refine(
             X, faces, out.uv, he_twin, islands, proxy.frames, per_face, pinned, order, crossed=crossed
         )
     # islands that still fold, and islands with nothing free, are left as they are
-    d = _Descent(X, faces, x, islands, pinned, proxy, tol, settle, out, contact)
+    d = _Descent(X, faces, x, islands, pinned, proxy, tol, out, contact)
     d.begin(~stuck & (np.bincount(islands.label, ~pinned, minlength=k) > 0))
     if carry is None:
         _local_global(d, arap)
@@ -890,7 +866,6 @@ def refine(
             carry.refreshed_at,
             carry.reweighting,
         )
-        d.moves = carry.moves
     out.energy += [float(safe_divide(e.sum(), d.live_area)) for e in d.trace]
     g = d.gradient(d.G)
     for it in range(1, iterations + 1):  # quasi-Newton steps, each one factored solve
@@ -963,7 +938,6 @@ def _go_on_alone(d: _Descent, iterations: int, done: int) -> None:
         refreshed_at=d.refreshed_at[active] - done,
         reweighting=d.reweighting[active],
         weights=d.proxy.weights[f],
-        moves=[m[f] for m in d.moves],
     )
     order = nested_dissection(X_sub, unique_edges(F_sub))
     result = refine(
@@ -974,7 +948,6 @@ def _go_on_alone(d: _Descent, iterations: int, done: int) -> None:
         None,
         iterations=iterations,
         tol=d.tol if np.ndim(d.tol) == 0 else d.tol[active],
-        settle=d.settle[active],
         arap=0,
         pinned=d.pinned[rows],
         order=order,

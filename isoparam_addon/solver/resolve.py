@@ -81,11 +81,7 @@ def sub_problem(problem: Problem, faces: np.ndarray) -> tuple[Problem, np.ndarra
 
     pins = None if problem.pins is None else (np.asarray(problem.pins[0])[faces], np.asarray(problem.pins[1])[faces])
     start = None if problem.start is None else problem.start[faces]
-    tol = None if problem.face_tol is None else problem.face_tol[faces]
-    settle = None if problem.settle_above is None else problem.settle_above[faces]
-    part = Problem(
-        V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins, start, tol, settle
-    )
+    part = Problem(V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins, start)
     return part, used
 
 
