@@ -57,7 +57,7 @@ from scipy.sparse import csgraph
 from . import metrics, stress
 from .geometry import TINY, corner_angles, corner_signed_areas, face_areas, safe_divide
 from .islands import first_rows
-from .mesh import HalfEdges, edge_mask, pair_keys, unique_edges, unit_of
+from .mesh import HalfEdges, edge_mask, pair_keys, split, unique_edges, unit_of
 from .mincut import FaceGraph, face_graph, minimum_cut, source_side, without_chips
 from .options import Options, Problem
 from .ordering import nested_dissection
@@ -444,54 +444,114 @@ def _placed_cuts(
     other."""
     faces = np.flatnonzero(np.isin(owners.face, owners.charted if which is None else which))
     sub, used = sub_problem(replace(problem, seams=seams), faces)
-    V, F = np.asarray(sub.vertices), np.asarray(sub.faces)
-    unit = unit_of(V)
+    base = _Base.of(sub, options)
     n_owners = owners.topo.n_islands
     scale = None
-    rank = np.empty(len(V), dtype=np.int64)
-    rank[nested_dissection(V / unit, unique_edges(F))] = np.arange(len(V))
-    a3 = face_areas(V, F)
     cuts = np.zeros((0, 2), dtype=np.int64)
     cut_owners = np.zeros(0, dtype=np.int64)
     for j in range(_ROUNDS):
         tick(j / _ROUNDS)
-        # (two wedges of an island that other islands' faces separated meet at a bare vertex)
-        _, _, topo = topology_of(
-            replace(sub, seams=np.vstack([pairs(sub.seams), cuts])), replace(options, split_nonmanifold=True)
-        )
-        X = V[topo.vertex_of] / unit
-        boundary = np.zeros(len(X), dtype=bool)
-        h = np.flatnonzero(topo.he.twin < 0)
-        boundary[topo.faces.ravel()[h]] = True
-        order = np.argsort(rank[topo.vertex_of], kind="stable")
-        prediction = stress.predict(X, topo.faces, boundary, topo.face_island, topo.n_islands, order)
-        graph = face_graph(V, F, topo.face_island, np.vstack([pairs(sub.seams), cuts, topo.cut_edges]), sub.inner_edges)
-        owner = owners.face[faces[first_rows(topo.face_island, topo.n_islands)]]
-        ratio = _smoothed(graph, prediction.face_trace(topo.faces), a3)
+        charts, graph, ends, split_faces, X = base.cut(cuts)
+        prediction = stress.predict(X, split_faces, charts.boundary, charts.face_chart, charts.n, charts.order)
+        owner = owners.face[faces[first_rows(charts.face_chart, charts.n)]]
+        ratio = _smoothed(graph, prediction.face_trace(split_faces), base.area)
         if measured is not None and scale is None:  # refined against predicted, per island
             predicted = safe_divide(
                 np.bincount(owner, prediction.excess, minlength=n_owners),
                 np.bincount(owner, prediction.area, minlength=n_owners),
             )
-            if _DEBUG:
-                print("calib", measured[which], predicted[which])
-            # (aimed a quarter lower: a cut after the solve is the last)
+            # (aimed lower: a cut after the solve is the last)
             scale = _AIM * np.clip(safe_divide(measured, predicted, 1.0), 1.0, _MOST_SCALE)
         excess = prediction.excess * (_FIRST_AIM if scale is None else scale[owner])
         energy = 4.0 + safe_divide(excess, prediction.area)
-        charts = _Charts(V, F, topo.face_island, topo.n_islands, energy, prediction.area, owner, ratio)
-        # the split vertex of each edge's ends in the faces' numbering: phi lives on split vertices
-        corner = topo.corner_vertex[graph.f]
-        ends = np.stack([_corner_of(F[graph.f], corner, graph.edges[:, c]) for c in (0, 1)], axis=1)
-        opening = stress.normal_stress(X, topo.faces, prediction.phi, ends)
-        new, split = _stretch_cuts(charts, graph, n_owners, options.max_stretch, opening, slit)
-        if _DEBUG:
-            print("round", j, "new", len(new), "energy of chosen", np.round(energy[split], 3), "owners", owner[split])
+        laid = _Charts(base.V, base.F, charts.face_chart, charts.n, energy, prediction.area, owner, ratio)
+        opening = stress.normal_stress(X, split_faces, prediction.phi, ends)
+        new, split = _stretch_cuts(laid, graph, n_owners, options.max_stretch, opening, slit)
         if not len(new):
             break
         cuts = np.vstack([cuts, new])
         cut_owners = np.union1d(cut_owners, owner[split])
     return used[cuts], cut_owners
+
+
+@dataclass(frozen=True)
+class _Split:
+    """Charts as a round of :func:`_placed_cuts` cut them: per face its chart, per split
+    vertex whether it is on a chart's boundary, and the split vertices' elimination order."""
+
+    face_chart: np.ndarray  # (m,)
+    n: int
+    boundary: np.ndarray  # (ns,) bool
+    order: np.ndarray  # (ns,)
+
+
+@dataclass(frozen=True)
+class _Base:
+    """The charted islands of a sub-problem split along its seams once (its topology),
+    from which every round's charts are split further along the round's cuts alone:
+    a round costs a vertex split and a filter of the faces' adjacency, not a topology."""
+
+    V: np.ndarray  # (n, 3) the sub-problem's vertices, and faces (m, 3)
+    F: np.ndarray
+    X: np.ndarray  # (ns, 3) the topology's split vertices, in units of ``unit``
+    faces: np.ndarray  # (m, 3) its faces over them (oriented)
+    he: HalfEdges
+    vertex_of: np.ndarray  # (ns,) the sub-problem vertex of each split vertex
+    edge_keys: np.ndarray  # per undirected edge of ``he``: its sub-problem vertex pair's key
+    corner: np.ndarray  # (m, 3) per input corner, its position in ``faces``' row
+    graph: FaceGraph  # the faces' adjacency across the seams and the topology's cuts
+    rank: np.ndarray  # (n,) each sub-problem vertex's place in a nested-dissection order
+    area: np.ndarray  # (m,) 3D areas
+
+    @classmethod
+    def of(cls, sub: Problem, options: Options) -> _Base:
+        # (two wedges of an island that other islands' faces separated meet at a bare vertex)
+        V, F, topo = topology_of(sub, replace(options, split_nonmanifold=True))
+        unit = unit_of(V)
+        rank = np.empty(len(V), dtype=np.int64)
+        rank[nested_dissection(V / unit, unique_edges(F))] = np.arange(len(V))
+        ends = topo.vertex_of[topo.he.edge_vertices]
+        edge_keys = pair_keys(ends[:, 0], ends[:, 1], len(V))
+        corner = np.argmax(topo.faces[:, :, None] == topo.corner_vertex[:, None, :], axis=1)
+        graph = face_graph(V, F, topo.face_island, np.vstack([pairs(sub.seams), topo.cut_edges]), sub.inner_edges)
+        X = V[topo.vertex_of] / unit
+        return cls(V, F, X, topo.faces, topo.he, topo.vertex_of, edge_keys, corner, graph, rank, face_areas(V, F))
+
+    def cut(self, cuts: np.ndarray):
+        """The charts cut further along ``cuts`` (k, 2 sub-problem vertex pairs), their
+        adjacency, the split vertices at the ends of its edges (k, 2), the faces over
+        split vertices and those vertices (in units)."""
+        n = len(self.V)
+        keys = pair_keys(cuts[:, 0], cuts[:, 1], n)
+        cut_edge = np.isin(self.edge_keys, keys)
+        faces, vertex_of = split(self.faces, len(self.X), cut_edge, self.he)
+        X = self.X[vertex_of]
+        h = np.flatnonzero((self.he.twin < 0) | cut_edge[self.he.edge])
+        boundary = np.zeros(len(X), dtype=bool)
+        boundary[faces.ravel()[h]] = True
+        boundary[faces[h // 3, (h % 3 + 1) % 3]] = True
+        graph = self.graph
+        if len(keys):
+            graph = graph.among_edges(~np.isin(pair_keys(graph.edges[:, 0], graph.edges[:, 1], n), keys))
+        m = len(faces)
+        joined = sp.coo_matrix((np.ones(len(graph.f)), (graph.f, graph.g)), shape=(m, m))
+        n_charts, face_chart = csgraph.connected_components(joined, directed=False)
+        _, face_chart = np.unique(face_chart, return_inverse=True)  # numbered by lowest face
+        face_chart = face_chart.ravel()
+        # (renumber by the lowest face of each chart, as the topology numbers islands)
+        first = first_rows(face_chart, n_charts)
+        relabel = np.empty(n_charts, dtype=np.int64)
+        relabel[np.argsort(first, kind="stable")] = np.arange(n_charts)
+        face_chart = relabel[face_chart]
+        order = np.argsort(self.rank[self.vertex_of[vertex_of]], kind="stable")
+        # the split vertex at each end of every edge of the adjacency, from face f's side
+        in_row = faces[graph.f]
+        mesh = self.vertex_of[vertex_of][in_row]  # (k, 3) sub-problem vertices of face f's row
+        ends = np.stack(
+            [in_row[np.arange(len(graph.f)), np.argmax(mesh == graph.edges[:, c, None], axis=1)] for c in (0, 1)],
+            axis=1,
+        )
+        return _Split(face_chart, n_charts, boundary, order), graph, ends, faces, X
 
 
 def _without_chips(owners: _Owners, cuts: np.ndarray) -> np.ndarray:
@@ -516,12 +576,6 @@ def _new_without_chips(owners: _Owners, result: Parametrization, problem: Proble
     )
     size = np.bincount(owners.face)[owners.face]
     return without_chips(graph, new, fewest=np.minimum(_FEWEST, _CHIP * size))
-
-
-def _corner_of(F: np.ndarray, split: np.ndarray, vertex: np.ndarray) -> np.ndarray:
-    """Per row, the entry of ``split`` (k, 3) at the corner of ``F`` (k, 3) that holds ``vertex`` (k,)."""
-    k = np.argmax(F == vertex[:, None], axis=1)
-    return split[np.arange(len(F)), k]
 
 
 def _smoothed(graph: FaceGraph, value: np.ndarray, area: np.ndarray) -> np.ndarray:

@@ -29,7 +29,7 @@ import numpy as np
 
 from .geometry import safe_divide
 from .mesh import HalfEdges
-from .overlap import _orient, _pairs_in_cells
+from .overlap import _pairs_in_cells, crossings
 
 __all__ = ["Contact", "Near"]
 
@@ -52,20 +52,18 @@ def _distances(x: np.ndarray, v: np.ndarray, a: np.ndarray, b: np.ndarray):
 
 @dataclass(frozen=True)
 class Near:
-    """Parts of a boundary that may touch in a step: pairs of edges (``first``,
-    ``second``: indices into :attr:`Contact.edges`, sharing no vertex) and (vertex, edge)
-    pairs (``vertex``, ``edge``)."""
+    """Parts of a boundary that may touch in a step: (vertex, edge) pairs (``vertex``,
+    ``edge``: an index into :attr:`Contact.edges`), and the distance below which each
+    pair's barrier acts (``gap``)."""
 
-    first: np.ndarray
-    second: np.ndarray
     vertex: np.ndarray
     edge: np.ndarray
-    gap: np.ndarray  # per (vertex, edge) pair, the distance below which its barrier acts
+    gap: np.ndarray
 
     @classmethod
     def none(cls) -> Near:
         empty = np.zeros(0, dtype=np.int64)
-        return cls(empty, empty, empty, empty, np.zeros(0))
+        return cls(empty, empty, np.zeros(0))
 
 
 @dataclass
@@ -114,39 +112,42 @@ class Contact:
         after[edges[:, 0]], before[edges[:, 1]] = edges[:, 1], edges[:, 0]
         return cls(edges, island, gap, weight, after, before, X)
 
-    def near(self, x: np.ndarray, which: np.ndarray, reach: np.ndarray | float = 0.0) -> Near:
-        """The parts of the boundary of the islands ``which`` (n_islands,) bool that may
-        come within their gap of each other while every vertex moves by at most ``reach``
-        (per island) from ``x`` (n, 2): pairs of boundary edges whose boxes, grown by half
-        the gap and the reach, meet (one grid pass; a step's trials then look at these
-        alone)."""
-        on = np.flatnonzero(which[self.edge_island])
+    def near(self, x: np.ndarray, which: np.ndarray, motion: np.ndarray | None = None) -> Near:
+        """The (vertex, edge) pairs of the boundaries of the islands ``which``
+        (n_islands,) bool that are within their gap of each other in ``x`` (n, 2), or may
+        come so while each vertex moves by at most ``motion`` (n,) (one grid pass over
+        boxes grown by the gap and the motion, then the distances: a step's trials look
+        at these alone)."""
+        on = np.flatnonzero(which[self.edge_island] & (np.abs(x[self.edges]) < 1e150).all(axis=(1, 2)))
         if not len(on):
             return Near.none()
-        edges, island = self.edges[on], self.edge_island[on]
-        a, b = x[edges[:, 0]], x[edges[:, 1]]
-        pad = (0.5 * self.gap + np.broadcast_to(reach, self.gap.shape))[island][:, None]
-        lo, hi = np.minimum(a, b) - pad, np.maximum(a, b) + pad
-        cell = float(max(2.0 * np.median(np.max(hi - lo, axis=1)), 1e-300))
-        i, j = _pairs_in_cells(lo, hi, island, cell)
-        i, j = on[i], on[j]
         E = self.edges
-        shared = (E[i, 0] == E[j, 0]) | (E[i, 0] == E[j, 1]) | (E[i, 1] == E[j, 0]) | (E[i, 1] == E[j, 1])
-        # each boundary vertex starts one edge: a vertex near an edge is an end of an edge near it
-        v = np.concatenate([E[i, 0], E[i, 1], E[j, 0], E[j, 1]])
-        e = np.concatenate([j, j, i, i])
-        # (nor an edge beside the vertex's own: a sharp corner of the boundary is no contact)
-        a, b = E[e, 0], E[e, 1]
-        beside = (a == self.after[v]) | (a == self.before[v]) | (b == self.after[v]) | (b == self.before[v])
-        keep = (a != v) & (b != v) & ~beside
-        key = np.unique(v[keep] * np.int64(len(E)) + e[keep])
-        v, e = key // len(E), key % len(E)
-        # a pair as near on the surface keeps its distance (an exact layout of a developable
-        # island is left as it is); copies of one vertex (the banks of a cut) are apart
+        edges, island = E[on], self.edge_island[on]
+        move = np.zeros(len(x)) if motion is None else motion
+        vertices = edges[:, 0]  # (each boundary vertex starts one edge)
+        a, b = x[edges[:, 0]], x[edges[:, 1]]
+        pad = (self.gap[island] + np.maximum(move[edges[:, 0]], move[edges[:, 1]]))[:, None]
+        k = len(on)
+        box_lo = np.vstack([x[vertices] - move[vertices, None], np.minimum(a, b) - pad])
+        box_hi = np.vstack([x[vertices] + move[vertices, None], np.maximum(a, b) + pad])
+        cell = float(max(2.0 * np.median(box_hi[k:] - box_lo[k:]), 1e-300))
+        i, j = _pairs_in_cells(box_lo, box_hi, np.concatenate([island, island]), cell)
+        mixed = (i < k) != (j < k)
+        v, e = vertices[np.minimum(i, j)[mixed]], on[np.maximum(i, j)[mixed] - k]
+        # not an edge of the vertex's own
+        a_, b_ = E[e, 0], E[e, 1]
+        keep = (a_ != v) & (b_ != v)
+        v, e = v[keep], e[keep]
         gap = self.gap[self.edge_island[e]]
+        d = _distances(x, v, E[e, 0], E[e, 1])[0]
+        can = d < gap + move[v] + np.maximum(move[E[e, 0]], move[E[e, 1]])
+        v, e, gap = v[can], e[can], gap[can]
+        # a pair as near on the surface keeps its distance (an exact layout of a developable
+        # island, or a sharp corner of its boundary, is left as it is); copies of one
+        # vertex (the banks of a cut) are apart
         on_surface = _distances(self.X, v, E[e, 0], E[e, 1])[0]
         gap = np.where(on_surface > _SAME * gap, np.minimum(gap, _CLOSER * on_surface), gap)
-        return Near(i[~shared], j[~shared], v, e, gap)
+        return Near(v, e, gap)
 
     def energy(self, x: np.ndarray, near: Near, n_islands: int):
         """Per island (n_islands,) the barrier in ``x`` (n, 2) of the pairs ``near`` (0
@@ -177,19 +178,6 @@ class Contact:
                 - np.bincount(b, s * force[:, c], minlength=n)
             )
         return np.bincount(island, value, minlength=n_islands), grad
-
-    def crossed(self, x: np.ndarray, near: Near, n_islands: int) -> np.ndarray:
-        """Per island (n_islands,) bool: islands with a pair of edges ``near`` that cross
-        in ``x`` (n, 2)."""
-        out = np.zeros(n_islands, dtype=bool)
-        if len(near.first):
-            E = self.edges
-            P, Q, R, S = x[E[near.first, 0]], x[E[near.first, 1]], x[E[near.second, 0]], x[E[near.second, 1]]
-            cross = (np.sign(_orient(P, Q, R)) * np.sign(_orient(P, Q, S)) < 0) & (
-                np.sign(_orient(R, S, P)) * np.sign(_orient(R, S, Q)) < 0
-            )
-            out[self.edge_island[near.first[cross]]] = True
-        return out
 
     def first_contact(self, x: np.ndarray, p: np.ndarray, near: Near, n_islands: int) -> np.ndarray:
         """Per island (n_islands,), the first step t > 0 along ``p`` (n, 2) from ``x`` at
@@ -224,18 +212,25 @@ class Contact:
         np.minimum.at(out, self.edge_island[near.edge], hit)
         return out
 
-    def crossing(self, x: np.ndarray) -> np.ndarray:
-        """Per island bool: islands whose boundary crosses itself in ``x`` (n, 2)."""
-        every = np.ones(len(self.gap), dtype=bool)
-        return self.crossed(x, self.near(x, every), len(self.gap))
+    def crossing(self, x: np.ndarray, which: np.ndarray | None = None) -> np.ndarray:
+        """Per island bool: islands (of ``which``, all by default) whose boundary crosses
+        itself in ``x`` (n, 2)."""
+        out = np.zeros(len(self.gap), dtype=bool)
+        # (a layout left as it is may hold no numbers, or ones too large to grid)
+        finite = (np.abs(x[self.edges]) < 1e150).all(axis=(1, 2))
+        if which is not None:
+            finite &= which[self.edge_island]
+        i, _ = crossings(x, self.edges[finite], self.edge_island[finite])
+        out[self.edge_island[finite][i]] = True
+        return out
 
-    def reach(self, p: np.ndarray, t: np.ndarray, n_islands: int) -> np.ndarray:
-        """Per island (n_islands,), the farthest a boundary vertex moves along ``p`` (n, 2)
-        with the island's step ``t``."""
+    def motion(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Per vertex (n,), how far it moves along ``p`` (n, 2) with its island's step
+        ``t`` (per island; boundary vertices only, 0 elsewhere)."""
+        out = np.zeros(len(p))
         v = self.edges[:, 0]
-        far = np.zeros(n_islands)
-        np.maximum.at(far, self.edge_island, np.hypot(p[v, 0], p[v, 1]))
-        return far * t
+        out[v] = np.hypot(p[v, 0], p[v, 1]) * t[self.edge_island]
+        return out
 
     def separate(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
         """``x`` (n, 2) with the boundary vertices of islands ``which`` that lie on another

@@ -67,6 +67,10 @@ class FaceGraph:
         keep = faces[self.f] & faces[self.g]
         return FaceGraph(self.f[keep], self.g[keep], self.edges[keep], self.cost[keep], self.centroids)
 
+    def among_edges(self, keep: np.ndarray) -> FaceGraph:
+        """The graph with only the edges ``keep`` (k,) bool."""
+        return FaceGraph(self.f[keep], self.g[keep], self.edges[keep], self.cost[keep], self.centroids)
+
     def polygons(self) -> np.ndarray | None:
         """The polygon of every face (m,): faces joined across edges never to cut (a
         polygon's diagonals) share one, numbered by its lowest face; None if there are

@@ -400,7 +400,7 @@ def _start(
     area2 = 2.0 * frames.area
     det = signed_double_areas(x, faces) / area2
     never = np.zeros(islands.n, dtype=bool)
-    overlapping = never if crossed is None else crossed(x)
+    overlapping = never if crossed is None else crossed(x, None)
     crushed = per_face.sum(det <= _COLLAPSED) > 0
     if poor is None:
         poor = (crushed | overlapping) & (np.bincount(islands.label, pinned, minlength=islands.n) == 0)
@@ -427,7 +427,7 @@ def _start(
             break
         d = signed_double_areas(y, faces) / area2
         folded = per_face.sum(d <= 0) > 0
-        overlaps = never if crossed is None else crossed(y) & want
+        overlaps = never if crossed is None else crossed(y, want)
         e = np.where(want & ~folded, _island_energy(frames, per_face, y), np.inf)
         # an island only overlapping itself takes a layout that does not, unless it starts
         # much farther away; one whose seed folds or crushes takes the best that does not fold
@@ -503,8 +503,8 @@ class _Descent:
         island) along ``p`` (n, 2) from here (None: no step)."""
         if self.contact is None:
             return Near.none()
-        reach = 0.0 if p is None else self.contact.reach(p, t, self.islands.n)
-        return self.contact.near(self.x, which & ~self.no_contact, reach)
+        motion = None if p is None else self.contact.motion(p, t)
+        return self.contact.near(self.x, which & ~self.no_contact, motion)
 
     def first_contact(self, p: np.ndarray, near: Near) -> np.ndarray:
         """Per island, the first step along ``p`` at which its boundary touches itself."""
@@ -518,13 +518,6 @@ class _Descent:
         if self.contact is None:
             return np.zeros(self.islands.n), np.zeros_like(x)
         return self.contact.energy(x, near, self.islands.n)
-
-    def crossing(self, x: np.ndarray, near: Near) -> np.ndarray:
-        """Islands (n_islands,) bool whose boundary crosses itself in ``x`` (pairs
-        ``near``) and did not at the start."""
-        if self.contact is None:
-            return np.zeros(self.islands.n, dtype=bool)
-        return self.contact.crossed(x, near, self.islands.n)
 
     def set_active(self, active: np.ndarray) -> None:
         self.active = active
@@ -630,14 +623,12 @@ class _Descent:
                 for k in range(4):
                     Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
                 Et = np.where(searching, np.bincount(per_face.label[f], ef, minlength=self.islands.n), Et)
-            crossed = np.zeros(self.islands.n, dtype=bool)
             if self.contact is not None:
                 xt = self.x + self.islands.spread(np.where(searching, t, 0.0)) * p
                 Eb, gb_t = self.barrier(xt, near)
                 Et = np.where(searching, Et + Eb, Et)
                 gb = np.where(self.islands.spread(searching), gb_t, gb)
-                crossed = self.crossing(xt, near) & searching
-            searching &= ~(Et <= self.E + 1e-4 * t * slope) | crossed
+            searching &= ~(Et <= self.E + 1e-4 * t * slope)
             t[searching] *= 0.5
             gone = searching & (t < 1e-12)
             t[gone] = 0.0
@@ -710,7 +701,6 @@ def _local_global(desc: _Descent, steps: int) -> None:
             xt = desc.x + islands.spread(t) * p
             Eb, gb = desc.barrier(xt, near)
             Et = Et + Eb
-            folds |= desc.crossing(xt, near)
             worse = (t > 0) & (folds | ~(Et < desc.E))
             if not (worse & far).any():
                 break
