@@ -36,6 +36,7 @@ __all__ = ["Contact", "Near"]
 _GAP = 0.5  # the barrier starts this share of the island's mean boundary edge away
 _STIFFNESS = 1.0  # the barrier's scale, in mean face energies at the gap over its square
 _APART = 1e-3  # banks that start in contact are pushed this share of an edge apart
+_FOLLOWED = 4.0  # contact is followed along a step within this many gaps of every vertex
 _CLOSER = 0.9  # a pair acts once it is this much nearer than on the surface ...
 _SAME = 1e-3  # ... unless it is this near on the surface (as a share of the gap): copies of a vertex
 
@@ -123,7 +124,9 @@ class Contact:
             return Near.none()
         E = self.edges
         edges, island = E[on], self.edge_island[on]
-        move = np.zeros(len(x)) if motion is None else motion
+        # (a step that moves the boundary far is followed within a few gaps: beyond, the
+        # test of its end for crossings refuses it, see :meth:`crossing`)
+        move = np.zeros(len(x)) if motion is None else np.minimum(motion, _FOLLOWED * self.gap.max(initial=0.0))
         vertices = edges[:, 0]  # (each boundary vertex starts one edge)
         a, b = x[edges[:, 0]], x[edges[:, 1]]
         pad = (self.gap[island] + np.maximum(move[edges[:, 0]], move[edges[:, 1]]))[:, None]
@@ -226,10 +229,11 @@ class Contact:
 
     def motion(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Per vertex (n,), how far it moves along ``p`` (n, 2) with its island's step
-        ``t`` (per island; boundary vertices only, 0 elsewhere)."""
+        ``t`` (per island; boundary vertices only, 0 elsewhere), at most ``_FOLLOWED``
+        gaps."""
         out = np.zeros(len(p))
         v = self.edges[:, 0]
-        out[v] = np.hypot(p[v, 0], p[v, 1]) * t[self.edge_island]
+        out[v] = np.minimum(np.hypot(p[v, 0], p[v, 1]) * t[self.edge_island], _FOLLOWED * self.gap[self.edge_island])
         return out
 
     def separate(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:

@@ -512,6 +512,13 @@ class _Descent:
             return np.full(self.islands.n, np.inf)
         return self.contact.first_contact(self.x, p, near, self.islands.n)
 
+    def crossing(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """Islands (n_islands,) bool of ``which`` whose boundary crosses itself in ``x``
+        (where a long step went past what :meth:`first_contact` follows)."""
+        if self.contact is None:
+            return np.zeros(self.islands.n, dtype=bool)
+        return self.contact.crossing(x, which & ~self.no_contact)
+
     def barrier(self, x: np.ndarray, near: Near):
         """Per island the contact barrier of the pairs ``near`` in ``x`` (0 without
         contact), and its gradient (n, 2)."""
@@ -623,12 +630,14 @@ class _Descent:
                 for k in range(4):
                     Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
                 Et = np.where(searching, np.bincount(per_face.label[f], ef, minlength=self.islands.n), Et)
+            crossed = np.zeros(self.islands.n, dtype=bool)
             if self.contact is not None:
                 xt = self.x + self.islands.spread(np.where(searching, t, 0.0)) * p
                 Eb, gb_t = self.barrier(xt, near)
                 Et = np.where(searching, Et + Eb, Et)
                 gb = np.where(self.islands.spread(searching), gb_t, gb)
-            searching &= ~(Et <= self.E + 1e-4 * t * slope)
+                crossed = self.crossing(xt, searching)
+            searching &= ~(Et <= self.E + 1e-4 * t * slope) | crossed
             t[searching] *= 0.5
             gone = searching & (t < 1e-12)
             t[gone] = 0.0
@@ -701,6 +710,7 @@ def _local_global(desc: _Descent, steps: int) -> None:
             xt = desc.x + islands.spread(t) * p
             Eb, gb = desc.barrier(xt, near)
             Et = Et + Eb
+            folds |= desc.crossing(xt, t > 0)
             worse = (t > 0) & (folds | ~(Et < desc.E))
             if not (worse & far).any():
                 break
