@@ -119,7 +119,7 @@ class Contact:
         come so while each vertex moves by at most ``motion`` (n,) (one grid pass over
         boxes grown by the gap and the motion, then the distances: a step's trials look
         at these alone)."""
-        on = np.flatnonzero(which[self.edge_island] & (np.abs(x[self.edges]) < 1e150).all(axis=(1, 2)))
+        on = np.flatnonzero(which[self.edge_island] & self._usable(x))
         if not len(on):
             return Near.none()
         E = self.edges
@@ -215,12 +215,17 @@ class Contact:
         np.minimum.at(out, self.edge_island[near.edge], hit)
         return out
 
+    def _usable(self, x: np.ndarray) -> np.ndarray:
+        """Per boundary edge, whether contact can be followed there: its island has a size
+        (a part collapsed to a point has none) and its layout numbers a grid can hold (a
+        layout left as it is may hold none)."""
+        return (self.gap[self.edge_island] > 0) & (np.abs(x[self.edges]) < 1e150).all(axis=(1, 2))
+
     def crossing(self, x: np.ndarray, which: np.ndarray | None = None) -> np.ndarray:
         """Per island bool: islands (of ``which``, all by default) whose boundary crosses
         itself in ``x`` (n, 2)."""
         out = np.zeros(len(self.gap), dtype=bool)
-        # (a layout left as it is may hold no numbers, or ones too large to grid)
-        finite = (np.abs(x[self.edges]) < 1e150).all(axis=(1, 2))
+        finite = self._usable(x)
         if which is not None:
             finite &= which[self.edge_island]
         i, _ = crossings(x, self.edges[finite], self.edge_island[finite])
