@@ -1,6 +1,6 @@
-"""Build the Blender extension: per-platform zips bundling scipy (never numpy).
+"""Build the Blender extension: per-platform zips bundling scipy and threadpoolctl (never numpy).
 
-1. download the scipy wheels that ``blender_manifest.toml`` lists (into ``wheels/``,
+1. download the wheels that ``blender_manifest.toml`` lists (into ``wheels/``,
    kept as a cache) with ``pip download --only-binary=:all: --no-deps``;
 2. stage the manifest and ``isoparam_addon/`` side by side (Blender wants the manifest
    and ``__init__.py`` at the zip root), keeping only the requested platforms' wheels;
@@ -61,6 +61,8 @@ def wheel_matches(name: str, platform: str, python: str) -> bool:
     tag = "cp" + python.replace(".", "")
     parts = name[:-4].split("-")
     plat = parts[-1]
+    if plat == "any" and parts[-3].startswith("py3"):  # pure Python: every platform and Python
+        return True
     if parts[-3] != tag:
         return False
     if platform == "linux-x64":
@@ -77,11 +79,11 @@ def download(wheels: list[str], platforms: list[str], pythons: list[str], cache:
     cache.mkdir(parents=True, exist_ok=True)
     wanted = []
     for platform in platforms:
-        for python in pythons:
+        for python in pythons:  # (a pure Python wheel is listed for every pair, and kept once)
             names = [w for w in wheels if wheel_matches(Path(w).name, platform, python)]
-            if not names:
+            if not any(not Path(w).name.endswith("-any.whl") for w in names):
                 raise SystemExit(f"the manifest lists no wheel for {platform}, Python {python}")
-            wanted += names
+            wanted += [n for n in names if n not in wanted]
             missing = [n for n in names if not (cache / Path(n).name).exists()]
             for name in missing:  # one pip call per missing wheel
                 m = re.match(r"(?P<dist>[^-]+)-(?P<ver>[^-]+)-", Path(name).name)

@@ -23,6 +23,7 @@ import numpy as np
 
 from . import metrics
 from ._memory import retained
+from ._parallel import one_blas_thread
 from .charts import with_charts
 from .cuts import with_extra_cuts
 from .errors import InvalidMeshError, IsoparamError, SolverError
@@ -101,7 +102,7 @@ def parametrize(
     options = replace(options or Options(), **option_values)
     problem = Problem(vertices, faces, seams, inner_edges, pins)
     problem = replace(problem, inner_edges=_off_pins(problem))
-    with retained(enabled=_is_large(vertices)), tracking(progress):
+    with retained(enabled=_is_large(vertices)), tracking(progress), one_blas_thread():
         if options.charts:  # (cuts apart what overlaps itself too)
             return with_charts(problem, options)
         with stage("", 0.0, 0.9 if options.split_overlaps else 1.0):

@@ -1,4 +1,5 @@
-"""Concurrency: column-parallel sparse triangular solves, and work beside the main thread.
+"""Concurrency: column-parallel sparse triangular solves, work beside the main thread, and
+one BLAS thread throughout a solve.
 
 SuperLU releases the GIL in ``SuperLU.solve`` (SciPy >= 0.18, SuperLU 5), and the
 columns of a right-hand side are independent, so on large systems the columns are split
@@ -17,7 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-__all__ = ["background", "solve_columns"]
+__all__ = ["background", "one_blas_thread", "solve_columns"]
 
 PARALLEL_FROM = 20_000  # rows; below this a thread hand-off costs more than it saves
 
@@ -81,3 +82,24 @@ def background(enabled: bool):
         pool.shutdown(wait=False, cancel_futures=True)
         raise
     pool.shutdown(wait=True)
+
+
+@contextlib.contextmanager
+def one_blas_thread():
+    """BLAS (numpy's and scipy's OpenBLAS, MKL...) on one thread while a solve runs, by
+    ``threadpoolctl`` (bundled with the add-on).
+
+    A sum split over threads is rounded otherwise than one summed in order, so the same
+    mesh would give other results with another thread count; and the solve keeps its own
+    second thread busy beside the main one (:func:`background`, :func:`solve_columns`),
+    so BLAS threads only compete with it: on this 2-core machine two BLAS threads were
+    never faster, and 30% slower with the other core loaded (docs/benchmarks.md). Where
+    ``threadpoolctl`` is missing (a plain Python install without it), BLAS runs as it is
+    set."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - a dependency of the add-on and of the tests
+        yield
+        return
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
