@@ -37,6 +37,7 @@ _GAP = 0.5  # the barrier starts this share of the island's mean boundary edge a
 _STIFFNESS = 1.0  # the barrier's scale, in mean face energies at the gap over its square
 _APART = 1e-3  # banks that start in contact are pushed this share of an edge apart
 _FOLLOWED = 4.0  # contact is followed along a step within this many gaps of every vertex
+_SKIN = 2.0  # pairs are listed this many gaps beyond a step's reach, and the list kept while it covers the steps
 _CLOSER = 0.9  # a pair acts once it is this much nearer than on the surface ...
 _SAME = 1e-3  # ... unless it is this near on the surface (as a share of the gap): copies of a vertex
 
@@ -126,7 +127,7 @@ class Contact:
         edges, island = E[on], self.edge_island[on]
         # (a step that moves the boundary far is followed within a few gaps: beyond, the
         # test of its end for crossings refuses it, see :meth:`crossing`)
-        move = np.zeros(len(x)) if motion is None else np.minimum(motion, _FOLLOWED * self.gap.max(initial=0.0))
+        move = np.zeros(len(x)) if motion is None else np.minimum(motion, (_FOLLOWED + _SKIN) * self.gap.max(initial=0.0))
         vertices = edges[:, 0]  # (each boundary vertex starts one edge)
         a, b = x[edges[:, 0]], x[edges[:, 1]]
         pad = (self.gap[island] + np.maximum(move[edges[:, 0]], move[edges[:, 1]]))[:, None]
@@ -234,11 +235,25 @@ class Contact:
 
     def motion(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Per vertex (n,), how far it moves along ``p`` (n, 2) with its island's step
-        ``t`` (per island; boundary vertices only, 0 elsewhere), at most ``_FOLLOWED``
-        gaps."""
+        ``t`` (per island; boundary vertices only, 0 elsewhere)."""
         out = np.zeros(len(p))
         v = self.edges[:, 0]
-        out[v] = np.minimum(np.hypot(p[v, 0], p[v, 1]) * t[self.edge_island], _FOLLOWED * self.gap[self.edge_island])
+        out[v] = np.hypot(p[v, 0], p[v, 1]) * t[self.edge_island]
+        return out
+
+    def followed(self, motion: np.ndarray, n_islands: int) -> np.ndarray:
+        """Per island (n_islands,) bool: whether contact is followed along the whole of a
+        step that moves each vertex by ``motion`` (n,) (else its end is tested for
+        crossings)."""
+        v = self.edges[:, 0]
+        beyond = motion[v] > _FOLLOWED * self.gap[self.edge_island]
+        return np.bincount(self.edge_island[beyond], minlength=n_islands) == 0
+
+    def skin(self) -> np.ndarray:
+        """Per vertex (n,) (0 off the boundary), the margin a list of pairs is built with
+        beyond what a step needs, so that the next steps can use it too."""
+        out = np.zeros(len(self.after))
+        out[self.edges[:, 0]] = _SKIN * self.gap[self.edge_island]
         return out
 
     def separate(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:

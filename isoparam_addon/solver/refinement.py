@@ -460,6 +460,7 @@ class _Descent:
     def __init__(self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol, out: Refinement, contact=None):
         self.X, self.faces, self.islands, self.pinned, self.tol, self.out = X, faces, islands, pinned, tol, out
         self.contact: Contact | None = contact
+        self._pairs: Near | None = None  # (see near)
         self.proxy = proxy
         self.frames = proxy.frames
         self.area = proxy.frames.area
@@ -500,17 +501,38 @@ class _Descent:
 
     def near(self, p, t, which: np.ndarray) -> Near:
         """The boundary pairs of the islands ``which`` that may touch on a step ``t`` (per
-        island) along ``p`` (n, 2) from here (None: no step)."""
+        island) along ``p`` (n, 2) from here (None: no step).
+
+        A list of pairs is kept from step to step while it covers them (a Verlet list, as
+        molecular dynamics keeps neighbours): it holds the pairs that came within reach
+        of a motion ``allowance`` per vertex when it was made, and serves while no vertex
+        has moved, since, by more than its allowance together with the step to come."""
         if self.contact is None:
             return Near.none()
-        motion = None if p is None else self.contact.motion(p, t)
-        return self.contact.near(self.x, which & ~self.no_contact, motion)
+        which = which & ~self.no_contact
+        motion = np.zeros(len(self.x)) if p is None else self.contact.motion(p, t)
+        cached = self._pairs
+        if cached is not None:
+            v = self.contact.edges[:, 0]  # (the boundary's vertices)
+            drift = np.hypot(*(self.x[v] - self._pairs_at[v]).T)
+            if not (which & ~self._pairs_for).any() and (drift + motion[v] <= self._allowance[v]).all():
+                return cached
+        self._allowance = motion + self.contact.skin()
+        self._pairs = self.contact.near(self.x, which, self._allowance)
+        self._pairs_at, self._pairs_for = self.x.copy(), which.copy()
+        return self._pairs
 
     def first_contact(self, p: np.ndarray, near: Near) -> np.ndarray:
         """Per island, the first step along ``p`` at which its boundary touches itself."""
         if self.contact is None:
             return np.full(self.islands.n, np.inf)
         return self.contact.first_contact(self.x, p, near, self.islands.n)
+
+    def followed(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Islands (n_islands,) bool along whose step ``t`` along ``p`` contact is followed."""
+        if self.contact is None:
+            return np.ones(self.islands.n, dtype=bool)
+        return self.contact.followed(self.contact.motion(p, t), self.islands.n)
 
     def crossing(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
         """Islands (n_islands,) bool of ``which`` whose boundary crosses itself in ``x``
@@ -616,6 +638,7 @@ class _Descent:
         gb = self.gb
         near = self.near(p, t, searching)
         t = np.minimum(t, 0.9 * self.first_contact(p, near))  # (no boundary crosses on the way)
+        followed = self.followed(p, t)
         while searching.any():
             f = None if Jt is None else per_face.members(searching)
             if Jt is None or f is None or 2 * len(f) > len(self.area):
@@ -636,7 +659,7 @@ class _Descent:
                 Eb, gb_t = self.barrier(xt, near)
                 Et = np.where(searching, Et + Eb, Et)
                 gb = np.where(self.islands.spread(searching), gb_t, gb)
-                crossed = self.crossing(xt, searching)
+                crossed = self.crossing(xt, searching & ~followed)
             searching &= ~(Et <= self.E + 1e-4 * t * slope) | crossed
             t[searching] *= 0.5
             gone = searching & (t < 1e-12)
@@ -701,16 +724,17 @@ def _local_global(desc: _Descent, steps: int) -> None:
         dJ = fr.jacobians(p)
         t = np.where(far, np.minimum(1.0, 0.9 * per_face.min(_max_step(desc.J, dJ, 1.0 / 0.9))), 1.0)
         t = np.where(stepping, t, 0.0)
+        near = desc.near(p, t, t > 0)
+        t = np.minimum(t, 0.9 * desc.first_contact(p, near))  # (no boundary crosses on the way)
+        followed = desc.followed(p, t)
         for _ in range(40):  # halvings of the far islands' steps, until each lowers the energy
             Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(desc.J, dJ))
             Et, Gt = desc.energies(Jt)
             folds = per_face.sum((Jt[0] * Jt[3] - Jt[1] * Jt[2]) <= 0) > 0
-            near = desc.near(p, t, t > 0)
-            t = np.minimum(t, 0.9 * desc.first_contact(p, near))
             xt = desc.x + islands.spread(t) * p
             Eb, gb = desc.barrier(xt, near)
             Et = Et + Eb
-            folds |= desc.crossing(xt, t > 0)
+            folds |= desc.crossing(xt, (t > 0) & ~followed)
             worse = (t > 0) & (folds | ~(Et < desc.E))
             if not (worse & far).any():
                 break
