@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scipy.spatial import cKDTree
+
 from .geometry import safe_divide
 from .mesh import HalfEdges
 from .overlap import _pairs_in_cells, crossings
@@ -90,6 +92,7 @@ class Contact:
     after: np.ndarray  # (n,) the next vertex along the boundary (-1 off it)
     before: np.ndarray  # (n,) the previous one
     X: np.ndarray  # (n, 3) the vertices on the surface
+    starting: np.ndarray  # (n,) the boundary edge each boundary vertex starts (-1 off it)
 
     @classmethod
     def of(cls, X: np.ndarray, faces: np.ndarray, vertex_island: np.ndarray, n_islands: int, area: np.ndarray):
@@ -112,7 +115,9 @@ class Contact:
         after = np.full(len(X), -1, dtype=np.int64)
         before = np.full(len(X), -1, dtype=np.int64)
         after[edges[:, 0]], before[edges[:, 1]] = edges[:, 1], edges[:, 0]
-        return cls(edges, island, gap, weight, after, before, X)
+        starting = np.full(len(X), -1, dtype=np.int64)
+        starting[edges[:, 0]] = np.arange(len(edges))
+        return cls(edges, island, gap, weight, after, before, X, starting)
 
     def near(self, x: np.ndarray, which: np.ndarray, motion: np.ndarray | None = None) -> Near:
         """The (vertex, edge) pairs of the boundaries of the islands ``which``
@@ -127,17 +132,22 @@ class Contact:
         edges, island = E[on], self.edge_island[on]
         # (a step that moves the boundary far is followed within a few gaps: beyond, the
         # test of its end for crossings refuses it, see :meth:`crossing`)
-        move = np.zeros(len(x)) if motion is None else np.minimum(motion, (_FOLLOWED + _SKIN) * self.gap.max(initial=0.0))
+        cap = (_FOLLOWED + _SKIN) * self.gap.max(initial=0.0)
+        move = np.zeros(len(x)) if motion is None else np.minimum(motion, cap)
+        # a vertex within reach of an edge is within reach plus half the edge of one of its
+        # ends: vertex pairs from a k-d tree, then the edges at the second vertex
         vertices = edges[:, 0]  # (each boundary vertex starts one edge)
-        a, b = x[edges[:, 0]], x[edges[:, 1]]
-        pad = (self.gap[island] + np.maximum(move[edges[:, 0]], move[edges[:, 1]]))[:, None]
-        k = len(on)
-        box_lo = np.vstack([x[vertices] - move[vertices, None], np.minimum(a, b) - pad])
-        box_hi = np.vstack([x[vertices] + move[vertices, None], np.maximum(a, b) + pad])
-        cell = float(max(2.0 * np.median(box_hi[k:] - box_lo[k:]), 1e-300))
-        i, j = _pairs_in_cells(box_lo, box_hi, np.concatenate([island, island]), cell)
-        mixed = (i < k) != (j < k)
-        v, e = vertices[np.minimum(i, j)[mixed]], on[np.maximum(i, j)[mixed] - k]
+        length = np.hypot(*(x[edges[:, 1]] - x[edges[:, 0]]).T)
+        radius = float(self.gap[island].max() + 2.0 * move[vertices].max() + length.max())
+        i, j = cKDTree(x[vertices]).query_pairs(radius, output_type="ndarray").T
+        i, j = np.concatenate([i, j]), np.concatenate([j, i])
+        i, j = i[island[i] == island[j]], j[island[i] == island[j]]
+        v, w = vertices[i], vertices[j]
+        # the two edges at w: the one it starts, and the one its predecessor starts
+        v = np.concatenate([v, v])
+        e = np.concatenate([self.starting[w], self.starting[self.before[w]]])
+        key = np.unique(v * np.int64(len(E)) + e)
+        v, e = key // len(E), key % len(E)
         # not an edge of the vertex's own
         a_, b_ = E[e, 0], E[e, 1]
         keep = (a_ != v) & (b_ != v)
@@ -152,6 +162,16 @@ class Contact:
         on_surface = _distances(self.X, v, E[e, 0], E[e, 1])[0]
         gap = np.where(on_surface > _SAME * gap, np.minimum(gap, _CLOSER * on_surface), gap)
         return Near(v, e, gap)
+
+    def within(self, x: np.ndarray, near: Near, motion: np.ndarray) -> tuple[Near, Near]:
+        """Of the pairs ``near``, those whose barrier can act on a step that moves each
+        vertex by at most ``motion`` (n,) from ``x`` (n, 2), and those that can meet on it."""
+        E = self.edges
+        v, e = near.vertex, near.edge
+        d = _distances(x, v, E[e, 0], E[e, 1])[0]
+        reach = motion[v] + np.maximum(motion[E[e, 0]], motion[E[e, 1]])
+        act, meet = d < near.gap + reach, d <= reach
+        return Near(v[act], e[act], near.gap[act]), Near(v[meet], e[meet], near.gap[meet])
 
     def energy(self, x: np.ndarray, near: Near, n_islands: int):
         """Per island (n_islands,) the barrier in ``x`` (n, 2) of the pairs ``near`` (0

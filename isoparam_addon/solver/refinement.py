@@ -522,6 +522,14 @@ class _Descent:
         self._pairs_at, self._pairs_for = self.x.copy(), which.copy()
         return self._pairs
 
+    def near_step(self, p: np.ndarray, t: np.ndarray, which: np.ndarray) -> tuple[Near, Near]:
+        """The pairs whose barrier can act on the step ``t`` along ``p``, and those that can
+        meet on it (:meth:`near`, narrowed to the step)."""
+        near = self.near(p, t, which)
+        if self.contact is None:
+            return near, near
+        return self.contact.within(self.x, near, self.contact.motion(p, t))
+
     def first_contact(self, p: np.ndarray, near: Near) -> np.ndarray:
         """Per island, the first step along ``p`` at which its boundary touches itself."""
         if self.contact is None:
@@ -636,8 +644,8 @@ class _Descent:
         Gt: list = []
         Et = self.E
         gb = self.gb
-        near = self.near(p, t, searching)
-        t = np.minimum(t, 0.9 * self.first_contact(p, near))  # (no boundary crosses on the way)
+        near, meet = self.near_step(p, t, searching)
+        t = np.minimum(t, 0.9 * self.first_contact(p, meet))  # (no boundary crosses on the way)
         followed = self.followed(p, t)
         while searching.any():
             f = None if Jt is None else per_face.members(searching)
@@ -724,8 +732,8 @@ def _local_global(desc: _Descent, steps: int) -> None:
         dJ = fr.jacobians(p)
         t = np.where(far, np.minimum(1.0, 0.9 * per_face.min(_max_step(desc.J, dJ, 1.0 / 0.9))), 1.0)
         t = np.where(stepping, t, 0.0)
-        near = desc.near(p, t, t > 0)
-        t = np.minimum(t, 0.9 * desc.first_contact(p, near))  # (no boundary crosses on the way)
+        near, meet = desc.near_step(p, t, t > 0)
+        t = np.minimum(t, 0.9 * desc.first_contact(p, meet))  # (no boundary crosses on the way)
         followed = desc.followed(p, t)
         for _ in range(40):  # halvings of the far islands' steps, until each lowers the energy
             Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(desc.J, dJ))
