@@ -409,12 +409,13 @@ def _start(
     none = np.zeros(islands.n, dtype=bool)
     if not poor.any():
         return x, per_face.sum(det <= 0) > 0, none, none
-    best = np.where(per_face.sum(det <= 0) > 0, np.inf, _island_energy(frames, per_face, x))
-    best_overlaps = overlapping | ~np.isfinite(best)  # (a folded seed is worse than any that unfolds)
-    chosen = np.zeros(islands.n, dtype=np.int64)  # 0: the seed, 1: conformal, 2: Tutte
+    # per candidate (the seed, a conformal map, a Tutte embedding): energy (inf where it
+    # folds or was not made) and whether it overlaps itself
+    energy = [np.where(per_face.sum(det <= 0) > 0, np.inf, _island_energy(frames, per_face, x))]
+    overlap = [overlapping]
     candidates = [x]
     want = poor
-    for k, seed in enumerate((lscm, tutte), start=1):
+    for seed in (lscm, tutte):
         if not want.any():
             break
         try:
@@ -428,16 +429,19 @@ def _start(
         d = signed_double_areas(y, faces) / area2
         folded = per_face.sum(d <= 0) > 0
         overlaps = never if crossed is None else crossed(y, want)
-        e = np.where(want & ~folded, _island_energy(frames, per_face, y), np.inf)
-        # an island only overlapping itself takes a layout that does not, unless it starts
-        # much farther away; one whose seed folds or crushes takes the best that does not fold
-        clear = (overlaps < best_overlaps) & (e < _CLEAR_PRICE * best)
-        better = np.isfinite(e) & (clear | (crushed & (overlaps == best_overlaps) & (e < best)))
-        best, chosen = np.where(better, e, best), np.where(better, k, chosen)
-        best_overlaps = np.where(better, overlaps, best_overlaps)
+        energy.append(np.where(want & ~folded, _island_energy(frames, per_face, y), np.inf))
+        overlap.append(overlaps)
         candidates.append(y)
         # a Tutte embedding only where the conformal map folds, crushes or overlaps itself
         want = want & (folded | (per_face.sum(d <= _COLLAPSED) > 0) | overlaps)
+    E, O = np.array(energy), np.array(overlap)
+    # the lowest energy that does not fold; if one that does not overlap itself either starts
+    # at most _CLEAR_PRICE times that, the lowest such (the refinement then keeps it from
+    # overlapping); an island whose seed only overlaps keeps it unless such a one is found
+    lowest = E.min(axis=0)
+    clear = ~O & (E <= _CLEAR_PRICE * lowest) & np.isfinite(E)
+    chosen = np.where(clear.any(axis=0), np.argmin(np.where(clear, E, np.inf), axis=0), np.argmin(E, axis=0))
+    chosen = np.where(poor & (crushed | clear.any(axis=0)), chosen, 0)
     x = candidates[0]
     for k in range(1, len(candidates)):
         x = np.where((chosen == k)[islands.label][:, None], candidates[k], x)
