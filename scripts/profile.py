@@ -4,9 +4,10 @@
 to the next is the stage's. Per stage name (topology, the four steps, refinement,
 placement, and the charting rounds, overlap and extra cuts they run in) the table gives
 seconds, share and calls, summed over every solve of the run, then the same per round
-(charting, its rounds, the overlap cuts). With ``--operator`` the mesh goes through
-Blender's operator end to end (reading, the solve, writing, the pack) instead of the
-solver alone with the operator's options.
+(charting, its rounds, the overlap cuts), then every refinement the run made: its
+descent iterations (and local/global steps), the islands it refined and its seconds.
+With ``--operator`` the mesh goes through Blender's operator end to end (reading, the
+solve, writing, the pack) instead of the solver alone with the operator's options.
 
     python scripts/profile.py ../shared/meshes/stanford-bunny.obj
     python scripts/profile.py model.obj --seams smart --operator
@@ -92,6 +93,7 @@ def main(argv=None) -> int:
 
         seams = smart_uv_seams(V, F) if args.seams == "smart" else None
     clock = StageClock()
+    refinements = _watch_refinements()
     t0 = time.perf_counter()
     if args.operator:
         record = _through_operator(V, F, seams, clock)
@@ -112,7 +114,32 @@ def main(argv=None) -> int:
     solve = sum(s for _, s, _ in clock.table(_step))
     _print("step (every solve)", clock.table(_step), solve)
     _print("round", clock.table(_round), solve)
+    print("\n| refinement | iterations | local/global steps | islands | seconds |\n|---|---|---|---|---|")
+    for k, (it, steps, islands, seconds) in enumerate(refinements, 1):
+        print(f"| {k} | {it} | {steps} | {islands} | {seconds:.3f} |")
+    print(
+        f"| all | {sum(r[0] for r in refinements)} | {sum(r[1] for r in refinements)} | | "
+        f"{sum(r[3] for r in refinements):.3f} |"
+    )
     return 0
+
+
+def _watch_refinements() -> list[tuple[int, int, int, float]]:
+    """A list that every call of the refinement (by :func:`.pipeline.solve`) adds its
+    iterations, local/global steps, islands and seconds to (hand-overs count in their
+    caller's)."""
+    from isoparam_addon.solver import pipeline
+
+    calls: list[tuple[int, int, int, float]] = []
+    inner = pipeline.refine
+
+    def refine(X, faces, uv, islands, *args, **kwargs):
+        out = inner(X, faces, uv, islands, *args, **kwargs)
+        calls.append((out.iterations, out.arap_iterations, islands.n, out.seconds))
+        return out
+
+    pipeline.refine = refine
+    return calls
 
 
 def _through_operator(V, F, seams, clock: StageClock):

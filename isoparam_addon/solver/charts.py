@@ -46,7 +46,6 @@ is the pins' to shape).
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, replace
 
@@ -90,21 +89,12 @@ _LEAVE = 0.1  # charts within this share of the budget's excess over isometric a
 _BAND = 0.1  # a cell boundary moves where its two seeds' distances differ by less than this share of the cell radius
 _GRID = 64  # the log area ratios that place cuts are rounded to 1 / _GRID
 _FOLDING = 4.0  # a slit along edges whose banks the prediction folds over each other costs this much more
-_FOLDED_SHARE = 1.0  # a slit whose banks would fold along more than this share of its length is not cut
-_OPENS = 0.0
 _FEWEST = 64  # a chart of fewer faces is not cut further ...
 _CHIP = 0.05  # ... and one of fewer faces and this share of its island is a chip, joined to a neighbour
-_START_UNSLIT = bool(os.environ.get("UNSLIT"))
-_COVER_ENV = float(os.environ.get("COVER", 0.5))
 _CHECKS = 2  # solves after the first: where the charts are still over the budget as refined
 _AIM = 1.25
-_FIRST_AIM = float(os.environ.get("FIRST_AIM", 1.25))  # after the solve, cuts are placed until the prediction is this far within the budget
+_FIRST_AIM = 1.25  # before the solve, the prediction is taken to stretch this much more (it underestimates)
 _MOST_SCALE = 100.0  # a refined island is taken to stretch at most this many times its prediction
-_CHECK_SLITS = bool(os.environ.get("CHECK_SLITS"))
-_PROTRUDE = bool(os.environ.get("PROTRUDE"))
-_NET = 0.5  # a cap is slit when the curvature around it is at least this share of its own
-_DEBUG = bool(os.environ.get("DEBUG"))
-_NOSLITS = bool(os.environ.get("NOSLITS"))
 _TIE = 1e-9  # distances this close (relative) are equal: the lowest-numbered face is the seed
 
 
@@ -151,16 +141,8 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
         placed, stretched = _placed_cuts(problem, options, np.vstack([seams, cells]), owners)
     first = _without_chips(owners, np.vstack([cells, placed]))  # every cut decided before the solve
     with stage("charting", 0.15, 0.75):
-        if _START_UNSLIT and len(first) and options.refine:
-            start = solve(replace(problem, seams=np.vstack([seams, cells])), replace(options, refine=0, pack=False))
-            problem_ = replace(problem, seams=np.vstack([seams, first]), start=start.corner_uv)
-        else:
-            problem_ = replace(problem, seams=np.vstack([seams, first]))
-        result = (
-            solve(problem_, options)
-            if len(first)
-            else solve(problem, options, built)
-        )
+        problem_ = replace(problem, seams=np.vstack([seams, first]))
+        result = solve(problem_, options) if len(first) else solve(problem, options, built)
     first_solve = result.timings.total
     result.cut_edges = np.vstack([first, result.cut_edges])
     stretch_cut = np.zeros(topo.n_islands, dtype=bool)  # islands cut where they stretched
@@ -338,8 +320,6 @@ def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: floa
     mean = safe_divide(np.bincount(owner, energy * area, minlength=k), np.bincount(owner, area, minlength=k))
     limit = energy_budget(budget)
     over = (area > 0) & (mean[owner] > limit)
-    if _DEBUG:
-        print("  stretch: mean", np.round(mean[np.unique(owner)][:5], 3), "limit", limit, "over", over.sum(), "energy", np.round(energy[:5], 3), "area", area[:5])
     if not over.any():
         return none
     excess = np.where(over, (energy - 4.0) * area, 0.0)
@@ -348,7 +328,7 @@ def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: floa
     running = np.concatenate([[0.0], np.cumsum(excess[order])])
     before = running[:-1] - running[np.searchsorted(sorted_owner, sorted_owner)]  # excess ahead in its island
     total = np.bincount(owner, excess, minlength=k)
-    chosen = order[(before < _COVER_ENV * total[sorted_owner]) & over[order]]
+    chosen = order[(before < _COVER * total[sorted_owner]) & over[order]]
     chosen = chosen[energy[chosen] > 4.0 + _LEAVE * (limit - 4.0)]  # leave near-isometric charts
     faces = np.bincount(charts.face_island, minlength=charts.n_islands)
     owned = np.bincount(owner, faces, minlength=k)[owner]  # faces of each chart's island
@@ -361,8 +341,6 @@ def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: floa
     # its most squeezed face
     tips = _tips(graph, on & (ratio < -2.0 * np.log(budget)), ratio)
     tips = tips[np.broadcast_to(slit, (n_owners,))[owner[charts.face_island[tips]]]]
-    if _PROTRUDE:
-        tips = tips[_protruding(graph, charts.vertices, charts.faces, tips, on & (ratio < -2.0 * np.log(budget)))]
     keep = on[graph.f] & on[graph.g]
     slit, slitted = _slits(charts, graph.among(on), tips, ratio, None if opening is None else opening[keep])
     rest = np.setdiff1d(chosen, slitted)
@@ -408,7 +386,7 @@ def _checked_cuts(result: Parametrization, problem: Problem, owners: _Owners, op
     new, split = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
     if len(over):
         seams = np.vstack([pairs(problem.seams), result.cut_edges])
-        new, _ = _placed_cuts(problem, options, seams, owners, over, measured, slit=_CHECK_SLITS)
+        new, _ = _placed_cuts(problem, options, seams, owners, over, measured, slit=False)
         split = np.unique(result.face_island[np.isin(owners.face, over)])
     tick()
     overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
@@ -600,50 +578,6 @@ def _tips(graph: FaceGraph, squeezed: np.ndarray, ratio: np.ndarray) -> np.ndarr
     return _extreme(depth, np.where(caps >= 0, caps, n_caps), np.arange(n_caps), np.minimum, np.inf)
 
 
-def _protruding(graph: FaceGraph, V: np.ndarray, F: np.ndarray, tips: np.ndarray, squeezed: np.ndarray) -> np.ndarray:
-    """Which ``tips`` (k,) end a protrusion (a limb, an ear, a horn), where a slit opens
-    the cap like a cone, and not a bump in a sheet, whose slit's banks the ring of
-    saddles around it folds back over each other: the Gaussian curvature within twice the
-    cap's radius of its tip is at least ``_NET`` of the cap's own (a bump's ring cancels
-    it)."""
-    if not len(tips):
-        return np.zeros(0, dtype=bool)
-    defect = _face_defects(graph, V, F)
-    caps = _regions(graph, squeezed)
-    n_caps = int(caps.max(initial=-1)) + 1
-    dist, _, source = csgraph.dijkstra(
-        graph.distances(), directed=False, indices=tips, min_only=True, return_predecessors=True
-    )
-    which = np.full(len(F), -1, dtype=np.int64)  # the tip each face is nearest to, by its number
-    reached = source >= 0
-    which[reached] = np.searchsorted(tips, source[reached], sorter=np.argsort(tips))
-    cap_of_tip = caps[tips]
-    radius = np.zeros(len(tips))
-    in_cap = (caps >= 0) & (which >= 0)
-    in_cap &= caps == np.where(which >= 0, cap_of_tip[np.maximum(which, 0)], -2)
-    np.maximum.at(radius, which[in_cap], dist[in_cap])
-    cap_curvature = np.bincount(which[in_cap], defect[in_cap], minlength=len(tips))
-    near = (which >= 0) & (dist <= 2.0 * radius[np.maximum(which, 0)])
-    around = np.bincount(which[near], defect[near], minlength=len(tips))
-    del n_caps
-    return around >= _NET * cap_curvature
-
-
-def _face_defects(graph: FaceGraph, V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Per face (m,), its share of the Gaussian curvature (angle defects) of its corners'
-    vertices, each vertex's shared among its faces: vertices on a boundary, seam or cut
-    of ``graph`` hold none."""
-    n, m = len(V), len(F)
-    angle, _, _ = corner_angles(V, F)
-    corner = F.ravel()
-    defect = 2.0 * np.pi - np.bincount(corner, angle, minlength=n)
-    ends_a, ends_b = corner, F[:, [1, 2, 0]].ravel()
-    joined = np.isin(pair_keys(ends_a, ends_b, n), pair_keys(graph.edges[:, 0], graph.edges[:, 1], n))
-    defect[ends_a[~joined]] = defect[ends_b[~joined]] = 0.0
-    valence = np.bincount(corner, minlength=n)
-    return (safe_divide(defect, valence)[F]).sum(axis=1) * np.ones(m)
-
-
 def _regions(graph: FaceGraph, faces: np.ndarray) -> np.ndarray:
     """Per face (m,), the connected region of ``faces`` (m,) bool it belongs to, numbered
     from 0 by lowest face (-1 off ``faces``)."""
@@ -723,7 +657,9 @@ def _slits(
     reached &= np.isfinite(dist[target])
     cur = target[reached]
     slit_of = np.arange(len(cur))  # per slit being walked, its number
-    pieces, owner, steps = [], [], []
+    pieces: list[np.ndarray] = []
+    owner: list[np.ndarray] = []
+    steps: list[np.ndarray] = []
     while cur.size:  # one step along every slit at once; as many rounds as the longest
         prev = pred[cur].astype(np.int64)
         pieces.append(np.stack([cur, prev], axis=1))
@@ -735,35 +671,24 @@ def _slits(
     edges, slit_of, step = np.concatenate(pieces), np.concatenate(owner), np.concatenate(steps)
     keep = np.ones(len(edges), dtype=bool)
     if opening is not None:
-        keep = _opening(edges, slit_of, step, len(target[reached]), inside.edges[use], opening[use], result.vertices, n)
+        keep = _opening(edges, slit_of, step, len(target[reached]), inside.edges[use], opening[use], n)
     slit_faces = faces[reached][np.unique(slit_of[keep])]
     if not keep.any():
         return none
     return np.unique(np.sort(edges[keep], axis=1), axis=0), np.unique(result.face_island[slit_faces])
 
 
-def _opening(edges, slit_of, step, n_slits: int, graph_edges, opening, V, n: int) -> np.ndarray:
+def _opening(edges, slit_of, step, n_slits: int, graph_edges, opening, n: int) -> np.ndarray:
     """Which steps (k,) of the slits ``edges`` (k, 2; each of slit ``slit_of``, ``step``
     edges from its tip) to cut, given the predicted ``opening`` of the ``graph_edges``:
-    from its tip, a slit loses the edges whose banks would fold over each other (it ends
-    where it starts to open); a slit that would still fold along more than
-    ``_FOLDED_SHARE`` of its length is not cut at all."""
+    from its tip, a slit loses the edges whose banks would fold over each other, so it
+    ends where it starts to open (at a cap's very centre the layout squeezes every way)."""
     keys = pair_keys(graph_edges[:, 0], graph_edges[:, 1], n)
     by_key = np.argsort(keys)
-    at = by_key[np.searchsorted(keys, pair_keys(edges[:, 0], edges[:, 1], n), sorter=by_key)]
-    o = opening[at]
-    most = np.zeros(n_slits)
-    np.maximum.at(most, slit_of, o)
-    folds = o < _OPENS * most[slit_of]
+    folds = opening[by_key[np.searchsorted(keys, pair_keys(edges[:, 0], edges[:, 1], n), sorter=by_key)]] < 0.0
     opens_from = np.full(n_slits, np.iinfo(np.int64).max)
     np.minimum.at(opens_from, slit_of[~folds], step[~folds])
-    keep = step >= opens_from[slit_of]
-    length = np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1)
-    kept = np.bincount(slit_of, np.where(keep, length, 0.0), minlength=n_slits)
-    folded = np.bincount(slit_of, np.where(keep & folds, length, 0.0), minlength=n_slits)
-    if _DEBUG:
-        print("   slits: kept length", np.round(kept, 3), "folded share", np.round(safe_divide(folded, kept), 2))
-    return keep & (folded <= _FOLDED_SHARE * kept)[slit_of]
+    return step >= opens_from[slit_of]
 
 
 def _charted(result: Parametrization, owners: _Owners, cut: np.ndarray, budget: float) -> list[SolverWarning]:

@@ -26,12 +26,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
 from scipy.spatial import cKDTree
 
 from .geometry import safe_divide
 from .mesh import HalfEdges
-from .overlap import _pairs_in_cells, crossings
+from .overlap import crossings
 
 __all__ = ["Contact", "Near"]
 

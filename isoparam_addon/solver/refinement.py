@@ -434,12 +434,12 @@ def _start(
         candidates.append(y)
         # a Tutte embedding only where the conformal map folds, crushes or overlaps itself
         want = want & (folded | (per_face.sum(d <= _COLLAPSED) > 0) | overlaps)
-    E, O = np.array(energy), np.array(overlap)
+    E, crossing = np.array(energy), np.array(overlap)
     # the lowest energy that does not fold; if one that does not overlap itself either starts
     # at most _CLEAR_PRICE times that, the lowest such (the refinement then keeps it from
     # overlapping); an island whose seed only overlaps keeps it unless such a one is found
     lowest = E.min(axis=0)
-    clear = ~O & (E <= _CLEAR_PRICE * lowest) & np.isfinite(E)
+    clear = ~crossing & (E <= _CLEAR_PRICE * lowest) & np.isfinite(E)
     chosen = np.where(clear.any(axis=0), np.argmin(np.where(clear, E, np.inf), axis=0), np.argmin(E, axis=0))
     chosen = np.where(poor & (crushed | clear.any(axis=0)), chosen, 0)
     x = candidates[0]
@@ -465,6 +465,7 @@ class _Descent:
         self.X, self.faces, self.islands, self.pinned, self.tol, self.out = X, faces, islands, pinned, tol, out
         self.contact: Contact | None = contact
         self._pairs: Near | None = None  # (see near)
+        self._pairs_at = self._pairs_for = self._allowance = np.zeros(0)
         self.proxy = proxy
         self.frames = proxy.frames
         self.area = proxy.frames.area

@@ -124,4 +124,3 @@ def _sides(graph: FaceGraph, layer: np.ndarray, other: np.ndarray):
     near = csgraph.dijkstra(G, directed=False, indices=np.flatnonzero(layer), min_only=True)
     far = csgraph.dijkstra(G, directed=False, indices=np.flatnonzero(other), min_only=True)
     return layer | (near < (1.0 - _BAND) * far), other | (far < (1.0 - _BAND) * near)
-
