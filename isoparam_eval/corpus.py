@@ -590,6 +590,13 @@ MANIFEST: tuple[Source, ...] = (
         "planar (z = 0) 2D outline mesh, one boundary loop: already flat",
     ),
     Source(
+        "ogre",
+        *_COMMON,
+        "data/ogre.obj",
+        _NO_LICENCE.format("unknown"),
+        "a creature of 44 parts (62k vertices, 15 boundary loops): the largest multi-part mesh here",
+    ),
+    Source(
         "woody",
         *_COMMON,
         "data/woody.obj",

@@ -7,32 +7,32 @@ island; so is an open part with bumps (a face scan, a terrain), whose curvature 
 in sum but not in its layout. Region-growing chart makers (D-Charts, Julius et al. 2005;
 xatlas) cut into tens to thousands of charts by face normals; distortion-driven cutting
 (Gu, Gortler and Hoppe, "Geometry images", 2002; OptCuts, Li et al. 2018) cuts only where
-the layout needs it. Here, in that second spirit, and with few solves:
+the layout needs it. Here, in that second spirit, the cuts are decided, then refined:
 
 1. **Cells.** An island that holds more Gaussian curvature than half a sphere (a closed
    part, or one with small holes: no single cut flattens it without crushing some of it)
    is split into ``_CELLS`` cells around seeds spread by farthest-point sampling
    (geodesic distance over the faces' adjacency), each face going to its nearest seed;
    where two seeds are about as near, the boundary moves onto the cheapest edges
-   (:mod:`.mincut`: short, along creases). Each cell flattens without the extreme
-   squeeze of one cut, which also spares the refinement its slowest starts. Tubes and
-   tori (little curvature) are opened by the usual cut (:mod:`.cutgraph`) instead.
-2. **Slit what a conformal map crushes.** A cap that a conformal map of its island squeezes
-   far beyond the budget is slit open before anything is refined
-   (:func:`_conformal_slits`): one sparse solve per island where a round costs a
-   refinement.
-3. **Solve** the mesh with the cells' boundaries and those slits as seams (a cell that is
-   still not a disk is cut open as usual).
-4. **Cut where it stretches**, judged on the refined layout. While an island's charts are
-   more distorted than the budget on (area-weighted) average, the charts that hold most
-   of its excess are each cut once: where a chart squeezes a cap by more than the budget
-   allows (a tip, a bump, the end of a limb), a slit from its boundary to the most
-   squeezed place lets the cap open like a cone cut along a ruling; elsewhere a minimum
-   cut parts a ball around its most squeezed faces from one around its most stretched,
-   which lie on either side of where the layout had to tear the surface. Charts that
-   overlap themselves are cut apart in the same round (:func:`.untangle.separating_cuts`).
-   The pieces go on from the layout they were cut from, alone
-   (:func:`.resolve.cut_further`), so a round costs one solve of the charts it cuts.
+   (:mod:`.mincut`: short, along creases). Tubes and tori (little curvature) are opened
+   by the usual cut (:mod:`.cutgraph`) instead.
+2. **Cuts placed on a prediction.** Round after round, the charts of every island are
+   predicted by one linear solve (:mod:`.stress`: how much, and where, the layout will
+   stretch and squeeze them), and while an island is predicted beyond the budget, the
+   charts that hold most of its excess are cut: where a chart squeezes a cap beyond the
+   budget (a tip, a bump, the end of a limb), a slit from its border to the most
+   squeezed place lets the cap open like a cone cut along a ruling, along edges the
+   prediction pulls apart; elsewhere a minimum cut parts a ball around its most squeezed
+   face from one around its most stretched. A round costs a prediction, not a solve.
+3. **Solve** the mesh once with those cuts as seams. The refinement keeps every chart's
+   boundary from crossing itself (:mod:`.contact`), so slits do not fold over.
+4. **Check.** An island still beyond the budget as refined is cut again as in 2, its
+   prediction scaled to what the refinement reached, and its charts alone are solved
+   again from their layout (at most ``_CHECKS`` times); charts that overlap themselves
+   (a start that did) are cut apart in the same solve (:func:`.untangle.separating_cuts`).
+
+Every decision but the check reads linear solves and quantities rounded to a grid, with
+ties broken by face number: the charts do not follow the rounding of another machine.
 
 The budget is given as a stretch factor ``s``: an island may be as distorted (symmetric
 Dirichlet energy per area, each chart at its best scale) as one stretched uniformly by
@@ -92,8 +92,8 @@ _FOLDING = 4.0  # a slit along edges whose banks the prediction folds over each 
 _FEWEST = 64  # a chart of fewer faces is not cut further ...
 _CHIP = 0.05  # ... and one of fewer faces and this share of its island is a chip, joined to a neighbour
 _CHECKS = 2  # solves after the first: where the charts are still over the budget as refined
-_AIM = 1.25
-_FIRST_AIM = 1.25  # before the solve, the prediction is taken to stretch this much more (it underestimates)
+_FIRST_AIM = 1.25  # before the solve, the prediction is taken to stretch this much more (it underestimates) ...
+_AIM = 1.25  # ... and after it, this much more than the refinement showed (a check's cuts are the last)
 _MOST_SCALE = 100.0  # a refined island is taken to stretch at most this many times its prediction
 _TIE = 1e-9  # distances this close (relative) are equal: the lowest-numbered face is the seed
 

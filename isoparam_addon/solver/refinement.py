@@ -40,6 +40,11 @@ acceptance, step length, line search, L-BFGS memory, proxy weights and stopping 
 stops the rest; once the islands still descending hold at most a quarter of the rows,
 they go on alone with a proxy of their own.
 
+**Contact.** Every island's boundary is kept from crossing itself (:mod:`.contact`): a
+barrier between boundary vertices and edges near each other joins the energy, and a step
+stops short of the first time a vertex would meet an edge. An island whose start does
+not overlap itself never comes to.
+
 Pins are Dirichlet constraints: pinned vertices keep their UV and the others adapt.
 """
 
