@@ -11,12 +11,14 @@ from isoparam_eval import meshes as ex
 
 CASES = {  # a mesh and options that take each path of a solve (charts, overlap cuts, extra cuts)
     "spot, charts": (lambda: ex.load_obj(ex.SPOT)[:2], dict(charts=True, refine=1000, split_overlaps=True)),
+    "peaks, charts checked": (lambda: ex.peaks(41, z_scale=2.0), dict(charts=True, refine=1000, split_overlaps=True)),
     "ribbon, overlap cuts": (ex.helical_ribbon, dict(charts=False, refine=1000, split_overlaps=True)),
     "box, extra cuts": (lambda: ex.box(6)[:2], dict(charts=False, refine=1000, extra_cuts=4)),
     "sphere band, refinement 0": (ex.sphere_band, dict(charts=False, refine=0, unfold=True)),
 }
 ONE_OF_EACH_PATH = {  # a stage each case must pass through
     "spot, charts": "placing cuts",
+    "peaks, charts checked": "checking the charts, round 2, refinement",
     "ribbon, overlap cuts": "overlap cuts, refinement",
     "box, extra cuts": "extra cut 1, refinement",
     "sphere band, refinement 0": "refinement",

@@ -148,16 +148,16 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     stretch_cut = np.zeros(topo.n_islands, dtype=bool)  # islands cut where they stretched
     stretch_cut[stretched] = True
     rounds = 0
-    for check in range(_CHECKS):  # cut what is still over the budget or overlaps itself
-        with stage("checking the charts", *geometric(check + 1)):
+    with stage("checking the charts", 0.75, 0.9):  # cut what is still over the budget or overlaps itself
+        for check in range(1, _CHECKS + 1):
             new, split = _checked_cuts(result, problem, owners, options)
             stretch_cut[owners.face[first_rows(result.face_island, result.n_islands)[split[0]]]] = True
             if len(new):
                 new = _new_without_chips(owners, result, problem, new)
             if not len(new):
                 break
-            rounds += 1
-            with stage(f"round {rounds + 1}", 0.0, 1.0):
+            rounds = check
+            with stage(f"round {check + 1}", *geometric(check)):
                 result = cut_further(result, problem, new, np.union1d(*split), options)
     result.cut_islands = topo.cut_islands
     result.timings.topology += t_topology
