@@ -16,7 +16,7 @@ def _two_banks(gap=0.1):
     after = np.array([1, 0, 3, 2, 5, 4])
     starting = np.arange(6)
     island = np.zeros(6, np.int64)
-    contact = Contact(edges, island, np.array([gap]), np.array([1.0]), after, after, X, starting)
+    contact = Contact(edges, island, np.full(6, gap), 1, after, after, X, starting)
     return contact, x
 
 

@@ -11,11 +11,13 @@ contact (Li et al., "Incremental potential contact", 2020),
     b(d) = -(d - g)^2 ln(d / g)    for d < g,    0 beyond,
 
 of the distance d between a boundary vertex and a boundary edge of its island that does
-not hold it, with g (the gap) half the island's mean boundary edge: smooth, zero
-until two parts of the boundary come that close, infinite at contact. Each island's
-barrier is scaled to about one face's energy at a tenth of the gap, so that it is a
-wall, not a force felt across the island. A step that would carry a vertex across an edge
-in one go (jumping the barrier) is refused by a crossing test at its end.
+not hold it, with g (the gap) half the edge's length: smooth, zero until two parts of the
+boundary come that close, infinite at contact. The barrier is scaled to about the energy
+of a face on the edge, so that it is a wall, not a force felt across the island (gap and
+scale follow each edge: a part with long and short edges, a CAD part, is no different).
+Every step stops short of the first time a vertex would meet an edge (continuous
+collision detection); one that moves the boundary farther than the pairs followed is
+tested for crossings at its end instead.
 
 Banks of a cut laid out as one (a layout cut further goes on from where it was) start in
 contact: they are pushed a thousandth of an edge apart first (:meth:`Contact.separate`).
@@ -26,16 +28,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .geometry import safe_divide
 from .mesh import HalfEdges
-from .overlap import crossings
+from .overlap import _pairs_in_cells, crossings
 
 __all__ = ["Contact", "Near"]
 
-_GAP = 0.5  # the barrier starts this share of the island's mean boundary edge away
-_STIFFNESS = 1.0  # the barrier's scale, in mean face energies at the gap over its square
+_GAP = 0.5  # the barrier starts this share of its edge's length away
+_STIFFNESS = 1.0  # the barrier's scale, in the energies of a face on its edge (an equilateral one)
 _APART = 1e-3  # banks that start in contact are pushed this share of an edge apart
 _FOLLOWED = 4.0  # contact is followed along a step within this many gaps of every vertex
 _SKIN = 2.0  # pairs are listed this many gaps beyond a step's reach, and the list kept while it covers the steps
@@ -78,45 +79,43 @@ class Contact:
     edges : (k, 2) int64
         Boundary edges (vertex pairs, in the order of their face: the island to the left).
     edge_island : (k,) int64
-    gap : (n_islands,) float
-        Distance below which the barrier acts, per island.
-    weight : (n_islands,) float
-        The barrier's scale per island.
+    gap : (k,) float
+        Per edge, the distance below which its barrier acts (half its length on the
+        surface).
+    n_islands : int
     """
 
     edges: np.ndarray
     edge_island: np.ndarray
     gap: np.ndarray
-    weight: np.ndarray
+    n_islands: int
     after: np.ndarray  # (n,) the next vertex along the boundary (-1 off it)
     before: np.ndarray  # (n,) the previous one
     X: np.ndarray  # (n, 3) the vertices on the surface
     starting: np.ndarray  # (n,) the boundary edge each boundary vertex starts (-1 off it)
 
     @classmethod
-    def of(cls, X: np.ndarray, faces: np.ndarray, vertex_island: np.ndarray, n_islands: int, area: np.ndarray):
+    def of(cls, X: np.ndarray, faces: np.ndarray, vertex_island: np.ndarray, n_islands: int) -> Contact:
         """The contact of the islands of ``faces`` (m, 3) over ``X`` (n, 3), each of whose
-        vertices is in island ``vertex_island`` (n,); ``area`` (m,) the faces' 3D areas."""
+        vertices is in island ``vertex_island`` (n,)."""
         he = HalfEdges(faces, len(X))
         h = np.flatnonzero(he.edge_count[he.edge] == 1)
         f, k = h // 3, h % 3
         edges = np.stack([faces[f, k], faces[f, (k + 1) % 3]], axis=1)
-        island = vertex_island[edges[:, 0]]
-        length = np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
-        count = np.bincount(island, minlength=n_islands)
-        mean = safe_divide(np.bincount(island, length, minlength=n_islands), count)
-        gap = _GAP * mean
-        face_island = vertex_island[faces[:, 0]]
-        mean_area = safe_divide(
-            np.bincount(face_island, area, minlength=n_islands), np.bincount(face_island, minlength=n_islands)
-        )
-        weight = _STIFFNESS * safe_divide(mean_area, gap * gap)
+        gap = _GAP * np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
         after = np.full(len(X), -1, dtype=np.int64)
         before = np.full(len(X), -1, dtype=np.int64)
         after[edges[:, 0]], before[edges[:, 1]] = edges[:, 1], edges[:, 0]
         starting = np.full(len(X), -1, dtype=np.int64)
         starting[edges[:, 0]] = np.arange(len(edges))
-        return cls(edges, island, gap, weight, after, before, X, starting)
+        return cls(edges, vertex_island[edges[:, 0]], gap, n_islands, after, before, X, starting)
+
+    def _vertex_gap(self) -> np.ndarray:
+        """Per vertex (n,), the larger gap of its two boundary edges (0 off the boundary)."""
+        out = np.zeros(len(self.after))
+        np.maximum.at(out, self.edges[:, 0], self.gap)
+        np.maximum.at(out, self.edges[:, 1], self.gap)
+        return out
 
     def near(self, x: np.ndarray, which: np.ndarray, motion: np.ndarray | None = None) -> Near:
         """The (vertex, edge) pairs of the boundaries of the islands ``which``
@@ -131,27 +130,24 @@ class Contact:
         edges, island = E[on], self.edge_island[on]
         # (a step that moves the boundary far is followed within a few gaps: beyond, the
         # test of its end for crossings refuses it, see :meth:`crossing`)
-        cap = (_FOLLOWED + _SKIN) * self.gap.max(initial=0.0)
-        move = np.zeros(len(x)) if motion is None else np.minimum(motion, cap)
-        # a vertex within reach of an edge is within reach plus half the edge of one of its
-        # ends: vertex pairs from a k-d tree, then the edges at the second vertex
+        move = np.zeros(len(x)) if motion is None else np.minimum(motion, (_FOLLOWED + _SKIN) * self._vertex_gap())
+        # vertex points and edge boxes grown by the edge's gap and the motion: pairs of a
+        # vertex with an edge whose box holds it (one grid pass, boxes of every size)
         vertices = edges[:, 0]  # (each boundary vertex starts one edge)
-        length = np.hypot(*(x[edges[:, 1]] - x[edges[:, 0]]).T)
-        radius = float(self.gap[island].max() + 2.0 * move[vertices].max() + length.max())
-        i, j = cKDTree(x[vertices]).query_pairs(radius, output_type="ndarray").T
-        i, j = np.concatenate([i, j]), np.concatenate([j, i])
-        i, j = i[island[i] == island[j]], j[island[i] == island[j]]
-        v, w = vertices[i], vertices[j]
-        # the two edges at w: the one it starts, and the one its predecessor starts
-        v = np.concatenate([v, v])
-        e = np.concatenate([self.starting[w], self.starting[self.before[w]]])
-        key = np.unique(v * np.int64(len(E)) + e)
-        v, e = key // len(E), key % len(E)
+        a, b = x[edges[:, 0]], x[edges[:, 1]]
+        pad = (self.gap[on] + np.maximum(move[edges[:, 0]], move[edges[:, 1]]))[:, None]
+        k = len(on)
+        box_lo = np.vstack([x[vertices] - move[vertices, None], np.minimum(a, b) - pad])
+        box_hi = np.vstack([x[vertices] + move[vertices, None], np.maximum(a, b) + pad])
+        cell = float(max(2.0 * np.median(box_hi[k:] - box_lo[k:]), 1e-300))
+        i, j = _pairs_in_cells(box_lo, box_hi, np.concatenate([island, island]), cell)
+        mixed = (i < k) != (j < k)
+        v, e = vertices[np.minimum(i, j)[mixed]], on[np.maximum(i, j)[mixed] - k]
         # not an edge of the vertex's own
         a_, b_ = E[e, 0], E[e, 1]
         keep = (a_ != v) & (b_ != v)
         v, e = v[keep], e[keep]
-        gap = self.gap[self.edge_island[e]]
+        gap = self.gap[e]
         d = _distances(x, v, E[e, 0], E[e, 1])[0]
         can = d < gap + move[v] + np.maximum(move[E[e, 0]], move[E[e, 1]])
         v, e, gap = v[can], e[can], gap[can]
@@ -186,7 +182,8 @@ class Contact:
             return np.zeros(n_islands), grad
         v, e, s, d, island = v[close], e[close], s[close], d[close], island[close]
         u = safe_divide(diff[close], d[:, None])
-        g, w = near.gap[close], self.weight[island]
+        # scaled to a face's energy: the area of an equilateral face on the edge (2 gaps)
+        g, w = near.gap[close], _STIFFNESS * np.sqrt(3.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             log = np.log(d / g)
             value = -w * (d - g) ** 2 * log
@@ -239,12 +236,12 @@ class Contact:
         """Per boundary edge, whether contact can be followed there: its island has a size
         (a part collapsed to a point has none) and its layout numbers a grid can hold (a
         layout left as it is may hold none)."""
-        return (self.gap[self.edge_island] > 0) & (np.abs(x[self.edges]) < 1e150).all(axis=(1, 2))
+        return (self.gap > 0) & (np.abs(x[self.edges]) < 1e150).all(axis=(1, 2))
 
     def crossing(self, x: np.ndarray, which: np.ndarray | None = None) -> np.ndarray:
         """Per island bool: islands (of ``which``, all by default) whose boundary crosses
         itself in ``x`` (n, 2)."""
-        out = np.zeros(len(self.gap), dtype=bool)
+        out = np.zeros(self.n_islands, dtype=bool)
         finite = self._usable(x)
         if which is not None:
             finite &= which[self.edge_island]
@@ -265,15 +262,13 @@ class Contact:
         step that moves each vertex by ``motion`` (n,) (else its end is tested for
         crossings)."""
         v = self.edges[:, 0]
-        beyond = motion[v] > _FOLLOWED * self.gap[self.edge_island]
+        beyond = motion[v] > _FOLLOWED * self.gap
         return np.bincount(self.edge_island[beyond], minlength=n_islands) == 0
 
     def skin(self) -> np.ndarray:
         """Per vertex (n,) (0 off the boundary), the margin a list of pairs is built with
         beyond what a step needs, so that the next steps can use it too."""
-        out = np.zeros(len(self.after))
-        out[self.edges[:, 0]] = _SKIN * self.gap[self.edge_island]
-        return out
+        return _SKIN * self._vertex_gap()
 
     def separate(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
         """``x`` (n, 2) with the boundary vertices of islands ``which`` that lie on another
@@ -282,7 +277,7 @@ class Contact:
         near = self.near(x, which)
         v, e = near.vertex, near.edge
         d = _distances(x, v, self.edges[e, 0], self.edges[e, 1])[0]
-        touching = np.unique(v[d < _APART * self.gap[self.edge_island[e]] / _GAP])
+        touching = np.unique(v[d < _APART * self.gap[e] / _GAP])
         if not len(touching):
             return x
         # inward normal of a boundary vertex: its two edges turned left (island on the left)
@@ -297,7 +292,5 @@ class Contact:
         )
         out = safe_divide(out, np.hypot(out[:, 0], out[:, 1])[:, None])
         step = np.zeros(n)
-        island = np.zeros(n, dtype=np.int64)
-        island[a] = self.edge_island
-        step[touching] = _APART * self.gap[island[touching]] / _GAP
+        step[touching] = _APART * self._vertex_gap()[touching] / _GAP
         return x + step[:, None] * out

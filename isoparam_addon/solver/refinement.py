@@ -889,7 +889,7 @@ def refine(
     )
     per_face = Islands.labelled(islands.label[faces[:, 0]], k)
     x, stuck = out.uv, none
-    contact = Contact.of(X, faces, islands.label, k, proxy.frames.area) if no_overlaps else None
+    contact = Contact.of(X, faces, islands.label, k) if no_overlaps else None
     if carry is None:
         crossed = None if contact is None else contact.crossing
         x, stuck, out.restarted_conformal, out.restarted_tutte = _start(
