@@ -106,6 +106,7 @@ class _Owners:
     charted: np.ndarray  # (k,) islands that may be cut into charts (no pins)
     held: np.ndarray  # (j,) islands that would be, but pins keep whole
     curved: np.ndarray  # (n,) bool: islands curved like a closed part (cut into cells first)
+    marked: np.ndarray  # (n,) bool: islands a seam of the caller's bounds
     topo: Topology
     graph: FaceGraph | None  # the faces' adjacency within islands (None when none is charted)
 
@@ -191,7 +192,7 @@ def _owners(problem: Problem, V: np.ndarray, F: np.ndarray, topo: Topology, disk
     curved = _curvature(V, topo) > _CURVED if (wanted & ~pinned).any() else np.zeros(n, dtype=bool)
     charted = np.flatnonzero(wanted & ~pinned)
     graph = face_graph(V, F, topo.face_island, problem.seams, problem.inner_edges) if len(charted) else None
-    return _Owners(topo.face_island, charted, np.flatnonzero(wanted & pinned), curved, topo, graph)
+    return _Owners(topo.face_island, charted, np.flatnonzero(wanted & pinned), curved, marked, topo, graph)
 
 
 def _curvature(V: np.ndarray, topo: Topology) -> np.ndarray:
@@ -390,6 +391,10 @@ def _checked_cuts(result: Parametrization, problem: Problem, owners: _Owners, op
         split = np.unique(result.face_island[np.isin(owners.face, over)])
     tick()
     overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
+    # (a chart of an island the caller's seams bound, or no chart, is left to the overlap
+    # repair after the check, which parts all its layers in one round, chips and all)
+    owner_of = owners.face[first_rows(result.face_island, result.n_islands)][overlapping]
+    overlapping = overlapping[np.isin(owner_of, owners.charted) & ~owners.marked[owner_of]]
     if len(overlapping):
         apart = separating_cuts(result, problem, overlapping, graph)
         result.stats.overlap_cuts += len(apart)
