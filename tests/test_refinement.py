@@ -61,6 +61,27 @@ def test_refinement_keeps_developable_meshes_exact(mesh):
     assert procrustes_error(U, r.uv) < 1e-9
 
 
+def test_an_island_that_starts_within_the_tolerance_of_isometric_is_left_as_it_is():
+    # a plane laid out exactly, then stretched a little: within the tolerance no descent
+    # runs and the layout is returned as given, its energy reported; beyond it, refined
+    from isoparam_addon.solver.topology import build_topology
+
+    V, F, topo = build_topology(*ex.peaks(15, z_scale=0.0))
+    X = V[topo.vertex_of]
+    islands = Islands(topo.vertex_island, topo.n_islands)
+    for stretch, refined in ((1.0 + 1e-3, False), (1.1, True)):
+        seed = X[:, :2] * [stretch, 1.0]
+        r = refine(X, topo.faces, seed, islands, topo.he.twin, tol=2e-4)
+        energy = r.island_energy[0] / r.island_area[0]
+        assert (r.iterations > 0) == refined
+        if refined:
+            assert energy < 4.0 + 1e-3
+        else:
+            # J = diag(s, 1) on every face: |J|^2 + |J^-1|^2 = 4 + (s - 1/s)^2
+            assert np.array_equal(r.uv, seed) and energy == pytest.approx(4.0 + (stretch - 1 / stretch) ** 2, rel=1e-9)
+            assert r.energy == [pytest.approx(energy, rel=1e-12)]
+
+
 def test_refinement_unfolds_a_folded_four_step_layout():
     V, F, _ = ex.s_surface_random(600, 0)  # the four-step layout folds 104 triangles here
     assert metrics.flipped(V, F, parametrize(V, F).uv) > 50

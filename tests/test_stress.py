@@ -29,10 +29,11 @@ def test_a_developable_chart_is_predicted_isometric(mesh):
 @pytest.mark.parametrize("polar", [0.3, 0.5, 0.7])
 def test_a_spherical_cap_is_predicted_as_the_refinement_lays_it_out(polar):
     # to first order in the strain: the cap's excess over isometric, as the refinement
-    # reaches it (measured: within 1-2%; the prediction grows past it as the cap deepens)
+    # reaches it (measured: within 1-2%; the prediction grows past it as the cap deepens);
+    # a tolerance below the shallow cap's excess (1e-4), so that it is refined at all
     V, F = ex.spherical_cap(20, max_polar=polar)
     prediction, X, _, boundary = _predicted(V, F)
-    refined = parametrize(V, F, refine=1000)
+    refined = parametrize(V, F, refine=1000, refine_tol=1e-6)
     sd = metrics.per_island(V, F, refined.corner_uv, refined.face_island).mean_symmetric_dirichlet
     assert prediction.energy()[0] - 4.0 == pytest.approx(sd - 4.0, rel=0.05)
     # the middle is squeezed, the rim stretched

@@ -21,6 +21,8 @@ tested for crossings at its end instead.
 
 Banks of a cut laid out as one (a layout cut further goes on from where it was) start in
 contact: they are pushed a thousandth of an edge apart first (:meth:`Contact.separate`).
+
+The refinement watches contact only where it is likely or met (see :mod:`.refinement`).
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ _FOLLOWED = 4.0  # contact is followed along a step within this many gaps of eve
 _SKIN = 2.0  # pairs are listed this many gaps beyond a step's reach, and the list kept while it covers the steps
 _CLOSER = 0.9  # a pair acts once it is this much nearer than on the surface ...
 _SAME = 1e-3  # ... unless it is this near on the surface (as a share of the gap): copies of a vertex
+_TOUCHING = 0.1  # an island with a pair this near (share of the gap) at the start is watched from there
 
 
 def _distances(x: np.ndarray, v: np.ndarray, a: np.ndarray, b: np.ndarray):
@@ -231,6 +234,15 @@ class Contact:
         hit = np.where(np.isfinite(roots) & (along >= 0.0) & (along <= 1.0), roots, np.inf).min(axis=1)
         np.minimum.at(out, self.edge_island[near.edge], hit)
         return out
+
+    def touching(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """Islands (n_islands,) bool of ``which`` with a boundary vertex within ``_TOUCHING``
+        of its gap from an edge in ``x`` (n, 2): the banks of a cut laid out as one, a
+        boundary pressed against itself; where contact is followed from the start."""
+        near = self.near(x, which)
+        d = _distances(x, near.vertex, self.edges[near.edge, 0], self.edges[near.edge, 1])[0]
+        touching = near.edge[d < _TOUCHING * near.gap]
+        return np.bincount(self.edge_island[touching], minlength=self.n_islands) > 0
 
     def _usable(self, x: np.ndarray) -> np.ndarray:
         """Per boundary edge, whether contact can be followed there: its island has a size

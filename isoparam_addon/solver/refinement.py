@@ -40,10 +40,21 @@ acceptance, step length, line search, L-BFGS memory, proxy weights and stopping 
 stops the rest; once the islands still descending hold at most a quarter of the rows,
 they go on alone with a proxy of their own.
 
+**Left as they are.** An unpinned island whose start is within ``tol`` of the isometric
+energy (``4 * area``) is not refined: no descent can lower it by more than its stopping
+test would see (most islands of seams marked by Smart UV Project, developable ones).
+
 **Contact.** Every island's boundary is kept from crossing itself (:mod:`.contact`): a
 barrier between boundary vertices and edges near each other joins the energy, and a step
 stops short of the first time a vertex would meet an edge. An island whose start does
-not overlap itself never comes to.
+not overlap itself never comes to. Contact is watched where it is likely or met: from the
+start on islands whose boundary touches itself there (the banks of a cut laid out as one)
+or whose start is far from isometric (it moves far), and on the others once a step would
+cross their boundary; such an island starts again from its
+start with the barrier (a descent that met contact unwatched has pressed parts of its
+boundary together, where a barrier added then holds them out of shape). Until then a
+step is only tested for crossings at its end: the pair lists, distances and barrier of
+every boundary at every step cost more than the rest of an iteration.
 
 Pins are Dirichlet constraints: pinned vertices keep their UV and the others adapt.
 """
@@ -226,7 +237,8 @@ class Refinement:
         replaced (it has pins, or even its Tutte embedding folded).
     island_energy, island_area : (n_islands,) float64
         At the end, per island: the energy (``sum_f A_f E_f``) and the 3D area of its
-        faces that were refined (0 for islands left alone), so that the last ``energy``
+        faces that were refined or left as they started near isometric (0 for islands
+        left alone because they fold or have nothing free), so that the last ``energy``
         is ``island_energy.sum() / island_area.sum()``.
     island_parts : ((n_islands,), (n_islands,)) float64
         ``island_energy`` split into its ``sum_f A_f ||J_f||^2`` and
@@ -483,22 +495,46 @@ class _Descent:
         self.refreshed_at = np.zeros(islands.n, dtype=np.int64)
         self.fixed = np.flatnonzero(pinned)
 
-    def begin(self, active: np.ndarray) -> None:
-        """Start descending the ``active`` islands (the others are left as they are)."""
+    def begin(self, active: np.ndarray, settle: bool = True, watched=None, start=None) -> None:
+        """Start descending the ``active`` islands (the others are left as they are).
+
+        ``settle``: an unpinned island whose start is within the tolerance of the
+        isometric energy (``4 * area``) is left as it is too: no descent can lower its
+        energy by more than the stopping test would see (most of the islands of seams
+        marked by Smart UV Project).
+        ``watched`` (n_islands,) bool: the islands whose contact is followed from the
+        start (default: those whose boundary touches itself there, :meth:`.Contact.touching`,
+        and those far from isometric). ``start`` (n, 2): where an island watched anew
+        starts again (default: here)."""
+        self.island_area = self.per_face.sum(self.area)
+        self.settled = np.zeros(self.islands.n, dtype=bool)
+        if settle:
+            E = _island_energy(self.frames, self.per_face, self.x)
+            self.settled = active & ~self.pinned_island() & (E <= (1.0 + self.tol) * 4.0 * self.island_area)
+            active = active & ~self.settled
+        # what the islands left as they are add to the layout's energy per unit area
+        self.settled_energy = float(np.where(self.settled, E, 0.0).sum()) if settle else 0.0
+        self.settled_area = float(self.island_area[self.settled].sum())
         self.set_active(active)
+        self.pending = np.zeros(self.islands.n, dtype=bool)
         if self.contact is not None:
             self.x = self.contact.separate(self.x, active & ~self.pinned_island())
             # no contact where the boundary crosses itself at the start (it can only be left
             # so), nor where pins shape the island (their copies of a seam vertex may meet)
-            self.no_contact = self.contact.crossing(self.x) | self.pinned_island()
+            self.no_contact = self.contact.crossing(self.x, active) | self.pinned_island()
         else:
             self.no_contact = np.ones(self.islands.n, dtype=bool)
+        self.start = self.x if start is None else start
         self.J = self.frames.jacobians(self.x)
         self.E, self.G = self.energies(self.J)
+        if watched is None and self.contact is not None:
+            # a start far from isometric moves its boundary far: contact is likely met
+            far = self.E > _CRUSHED * 4.0 * self.island_area
+            watched = far | self.contact.touching(self.x, active & ~self.no_contact)
+        self.watched = np.zeros(self.islands.n, dtype=bool) if watched is None else watched
         self.Eb, self.gb = self.barrier(self.x, self.near(None, None, active))
         self.E = self.E + self.Eb
         self.trace = [self.E]  # per island, the start's energy and each ARAP step's
-        self.island_area = self.per_face.sum(self.area)
         # a start far from isometric (crushed faces) descends with the re-weighted proxy; a
         # start near it (the four-step layout of a near-developable island) with the
         # cotangent one, whose descent neither needs the re-weighting nor carries rounding
@@ -519,11 +555,11 @@ class _Descent:
         has moved, since, by more than its allowance together with the step to come."""
         if self.contact is None:
             return Near.none()
-        which = which & ~self.no_contact
+        which = which & ~self.no_contact & self.watched
         motion = np.zeros(len(self.x)) if p is None else self.contact.motion(p, t)
         cached = self._pairs
         if cached is not None:
-            v = self.contact.edges[:, 0]  # (the boundary's vertices)
+            v = self.contact.edges[which[self.contact.edge_island], 0]  # (the boundary's vertices)
             drift = np.hypot(*(self.x[v] - self._pairs_at[v]).T)
             if not (which & ~self._pairs_for).any() and (drift + motion[v] <= self._allowance[v]).all():
                 return cached
@@ -547,10 +583,42 @@ class _Descent:
         return self.contact.first_contact(self.x, p, near, self.islands.n)
 
     def followed(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Islands (n_islands,) bool along whose step ``t`` along ``p`` contact is followed."""
+        """Islands (n_islands,) bool along whose step ``t`` along ``p`` contact is followed
+        (the others' steps are tested for crossings at their end)."""
         if self.contact is None:
             return np.ones(self.islands.n, dtype=bool)
-        return self.contact.followed(self.contact.motion(p, t), self.islands.n)
+        return self.contact.followed(self.contact.motion(p, t), self.islands.n) & self.watched
+
+    def refused(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """Islands (n_islands,) bool of ``which`` whose boundary crosses itself in ``x``
+        (a step that went past what :meth:`first_contact` follows, or an island whose
+        contact is not watched); those not watched are watched from the next step on."""
+        crossed = self.crossing(x, which)
+        self.pending |= crossed & ~self.watched
+        return crossed
+
+    def watch_pending(self) -> bool:
+        """Watch the contact of the islands whose step was refused for crossing while it
+        was not watched, from their start again, as if it had been watched from there (a
+        descent that met contact unwatched has pressed parts of the boundary together,
+        where a barrier added then holds the island out of shape, and stops it). Returns
+        whether an island was (its layout, energy and barrier are then new)."""
+        newly = self.pending & self.active
+        self.pending[:] = False
+        if self.contact is None or not newly.any():
+            return False
+        self.watched = self.watched | newly
+        self.x = np.where(self.islands.spread(newly), self.start, self.x)
+        self.J = self.frames.jacobians(self.x)
+        self.E, self.G = self.energies(self.J)
+        self._pairs = None
+        self.Eb, self.gb = self.barrier(self.x, self.near(None, None, self.active))
+        self.E = self.E + self.Eb
+        # what they learnt and how far they went belong to the descent left
+        self.memory = [(s, y, np.where(newly, 0.0, rho)) for s, y, rho in self.memory]
+        self.gamma = np.where(newly, 1.0, self.gamma)
+        self.history = [np.where(newly, np.inf, h) for h in self.history]
+        return True
 
     def crossing(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
         """Islands (n_islands,) bool of ``which`` whose boundary crosses itself in ``x``
@@ -565,6 +633,11 @@ class _Descent:
         if self.contact is None:
             return np.zeros(self.islands.n), np.zeros_like(x)
         return self.contact.energy(x, near, self.islands.n)
+
+    def mean_energy(self, E: np.ndarray) -> float:
+        """The energy per unit area of the islands refined (per-island ``E``) and of
+        those left as they are."""
+        return float(safe_divide(E.sum() + self.settled_energy, self.live_area + self.settled_area))
 
     def set_active(self, active: np.ndarray) -> None:
         self.active = active
@@ -671,14 +744,19 @@ class _Descent:
                 for k in range(4):
                     Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
                 Et = np.where(searching, np.bincount(per_face.label[f], ef, minlength=self.islands.n), Et)
+            lower = Et <= self.E + 1e-4 * t * slope
             crossed = np.zeros(self.islands.n, dtype=bool)
             if self.contact is not None:
                 xt = self.x + self.islands.spread(np.where(searching, t, 0.0)) * p
                 Eb, gb_t = self.barrier(xt, near)
                 Et = np.where(searching, Et + Eb, Et)
+                lower = Et <= self.E + 1e-4 * t * slope
                 gb = np.where(self.islands.spread(searching), gb_t, gb)
-                crossed = self.crossing(xt, searching & ~followed)
-            searching &= ~(Et <= self.E + 1e-4 * t * slope) | crossed
+                crossed = self.refused(xt, searching & lower & ~followed)
+                # an island not watched stays where it is, to be watched from there
+                t[crossed & ~self.watched] = 0.0
+                searching &= ~(crossed & ~self.watched)
+            searching &= ~lower | crossed
             t[searching] *= 0.5
             gone = searching & (t < 1e-12)
             t[gone] = 0.0
@@ -732,6 +810,7 @@ def _local_global(desc: _Descent, steps: int) -> None:
     stepping = desc.active.copy()
     for k in range(max(steps, _SLIM_STEPS)):  # local/global steps
         tick()
+        desc.watch_pending()
         far = stepping & desc.reweighting & (desc.E > _NEAR * 4.0 * desc.island_area)
         stepping &= far | (k < steps)
         if not stepping.any():
@@ -752,7 +831,7 @@ def _local_global(desc: _Descent, steps: int) -> None:
             xt = desc.x + islands.spread(t) * p
             Eb, gb = desc.barrier(xt, near)
             Et = Et + Eb
-            folds |= desc.crossing(xt, (t > 0) & ~followed)
+            folds |= desc.refused(xt, (t > 0) & ~folds & (Et < desc.E) & ~followed)
             worse = (t > 0) & (folds | ~(Et < desc.E))
             if not (worse & far).any():
                 break
@@ -804,9 +883,9 @@ def _converged(desc: _Descent) -> None:
     last = desc.history[-1] if desc.history else None
     desc.history = [*desc.history, desc.E][-(_WINDOW + 1) :]
     if last is not None:
-        desc.active &= ~(last - desc.E < 0.01 * desc.tol * desc.E)
+        desc.active &= ~(last - desc.E < 0.01 * desc.tol * desc.E) | desc.pending
     if len(desc.history) > _WINDOW:
-        desc.active &= ~(desc.history[0] - desc.E < desc.tol * desc.E)
+        desc.active &= ~(desc.history[0] - desc.E < desc.tol * desc.E) | desc.pending
 
 
 @dataclass
@@ -820,6 +899,8 @@ class _Carry:
     refreshed_at: np.ndarray
     reweighting: np.ndarray
     weights: np.ndarray
+    watched: np.ndarray
+    start: np.ndarray
 
 
 def refine(
@@ -897,7 +978,12 @@ def refine(
         )
     # islands that still fold, and islands with nothing free, are left as they are
     d = _Descent(X, faces, x, islands, pinned, proxy, tol, out, contact)
-    d.begin(~stuck & (np.bincount(islands.label, ~pinned, minlength=k) > 0))
+    d.begin(
+        ~stuck & (np.bincount(islands.label, ~pinned, minlength=k) > 0),
+        settle=carry is None,
+        watched=None if carry is None else carry.watched,
+        start=None if carry is None else carry.start,
+    )
     if carry is None:
         _local_global(d, arap)
         _leave_endless(d)
@@ -908,18 +994,20 @@ def refine(
             carry.refreshed_at,
             carry.reweighting,
         )
-    out.energy += [float(safe_divide(e.sum(), d.live_area)) for e in d.trace]
+    out.energy += [d.mean_energy(e) for e in d.trace]
     g = d.gradient(d.G)
-    for it in range(1, iterations + 1):  # quasi-Newton steps, each one factored solve
+    for it in range(1, (iterations if d.active.any() else 0) + 1):  # quasi-Newton steps, each one factored solve
         tick(it / (it + _HALFWAY))
+        if d.watch_pending():
+            g = d.gradient(d.G)
         d.refresh(it)
         p, slope = d.direction(g)
         t, Jt, Et, Gt, dJ = d.line_search(p, slope)
-        if not (t > 0).any():
+        if not (t > 0).any() and not d.pending.any():
             break
         g = d.step(p, t, Jt, Et, Gt, dJ, g)
         _converged(d)
-        out.energy.append(float(d.E.sum()) / d.live_area)
+        out.energy.append(d.mean_energy(d.E))
         out.iterations = it
         if not d.active.any():
             break
@@ -944,14 +1032,15 @@ def _leave_endless(d: _Descent) -> None:
 
 def _finish(d: _Descent, out: Refinement, t0: float) -> Refinement:
     out.uv = d.x
-    out.island_area = d.per_face.sum(np.where(d.live_face, d.area, 0.0))
+    counted = d.live_face | d.per_face.expand(d.settled)  # (islands left as they are: 0)
+    out.island_area = d.per_face.sum(np.where(counted, d.area, 0.0))
     a, b, c, e = d.frames.jacobians(d.x)  # from x: a hand-over leaves J behind
     fro, det = a * a + b * b + c * c + e * e, a * e - b * c
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = fro / (det * det)
     out.island_parts = (
-        d.per_face.sum(np.where(d.live_face, d.area * fro, 0.0)),
-        d.per_face.sum(np.where(d.live_face, d.area * inv, 0.0)),
+        d.per_face.sum(np.where(counted, d.area * fro, 0.0)),
+        d.per_face.sum(np.where(counted, d.area * inv, 0.0)),
     )
     out.island_energy = out.island_parts[0] + out.island_parts[1]  # (the barrier left out)
     out.folded = int((signed_double_areas(d.x, d.faces) <= 0).sum())
@@ -980,6 +1069,8 @@ def _go_on_alone(d: _Descent, iterations: int, done: int) -> None:
         refreshed_at=d.refreshed_at[active] - done,
         reweighting=d.reweighting[active],
         weights=d.proxy.weights[f],
+        watched=(d.watched | d.pending)[active],
+        start=d.start[rows],
     )
     order = nested_dissection(X_sub, unique_edges(F_sub))
     result = refine(
@@ -1002,7 +1093,7 @@ def _go_on_alone(d: _Descent, iterations: int, done: int) -> None:
     # the energy over every live face: the islands handed over, the others as they stopped
     rest = float(E[~active].sum())
     sub_area = float(d.area[f].sum())
-    d.out.energy += [(rest + e * sub_area) / d.live_area for e in result.energy[1:]]
+    d.out.energy += [d.mean_energy(np.array([rest + e * sub_area])) for e in result.energy[1:]]
     d.out.iterations = done + result.iterations
     d.out.proxies += result.proxies
     d.E = E
