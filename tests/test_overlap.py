@@ -95,3 +95,26 @@ def test_islands_that_do_not_overlap_are_left_alone():
     V, F = ex.peaks(21)
     a, b = parametrize(V, F, refine=100), parametrize(V, F, refine=100, split_overlaps=True)
     assert np.array_equal(a.corner_uv, b.corner_uv) and b.stats.overlap_cuts == 0
+
+
+def test_the_face_graph_of_some_islands_is_the_whole_graph_among_them():
+    # the repair builds the graph of the islands that overlap only: the same edges, costs
+    # and face numbers as the whole mesh's graph narrowed to them
+    from isoparam_addon.solver.mincut import face_graph
+    from isoparam_addon.solver.topology import build_topology
+
+    V, F = ex.sphere(3)
+    V = np.vstack([V + [3.0 * k, 0.0, 0.0] for k in range(3)])  # three parts
+    F = np.vstack([F + k * (len(V) // 3) for k in range(3)])
+    seams = F[::7, :2]
+    V, F, topo = build_topology(V, F, seams)
+    island = topo.face_island
+    some = island != island[0]
+    assert 0 < some.sum() < len(F)
+    whole = face_graph(V, F, island, seams).among(some)
+    part = face_graph(V, F, island, seams, faces=np.flatnonzero(some))
+    key = lambda g: np.lexsort((g.g, g.f))  # noqa: E731
+    a, b = key(whole), key(part)
+    assert len(whole.f) > 0 and np.array_equal(whole.f[a], part.f[b]) and np.array_equal(whole.g[a], part.g[b])
+    assert np.array_equal(whole.edges[a], part.edges[b]) and np.array_equal(whole.cost[a], part.cost[b])
+    assert np.array_equal(whole.centroids, part.centroids)

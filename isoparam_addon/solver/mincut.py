@@ -92,11 +92,16 @@ class FaceGraph:
         return (graph + graph.T).tocsr()
 
 
-def face_graph(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, cut, inner_edges=None) -> FaceGraph:
+def face_graph(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, cut, inner_edges=None, faces=None) -> FaceGraph:
     """The :class:`FaceGraph` of mesh ``V`` (n, 3), ``F`` (m, 3): faces of one island
     (``face_island`` (m,)) joined across the edges that are not among ``cut`` (k, 2 vertex
     pairs: seams and cuts so far) and are shared by exactly two faces. ``inner_edges``
-    (vertex pairs) are never to be cut."""
+    (vertex pairs) are never to be cut. ``faces`` (k,) int, if given: whole islands, the
+    only faces joined (the graph of the others is not built; faces keep their numbers)."""
+    centroids = V[F].mean(axis=1)
+    if faces is not None:
+        sub = face_graph(V, F[faces], face_island[faces], cut, inner_edges)
+        return FaceGraph(faces[sub.f], faces[sub.g], sub.edges, sub.cost, centroids)
     n, m = len(V), len(F)
     # the faces of each island over vertices of their own: an edge two faces of an island
     # share is theirs alone, whatever faces of other islands also hold it (a face given
@@ -118,7 +123,7 @@ def face_graph(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, cut, inner
     angle = np.arccos(np.clip((normal[f] * normal[g]).sum(axis=1), -1.0, 1.0))
     cost = length * (1.0 - (1.0 - _CREASE_COST) * np.minimum(angle / _CREASE, 1.0))
     cost[np.isin(pair_keys(edges[:, 0], edges[:, 1], n), _keys(inner_edges, n))] = np.inf
-    return FaceGraph(f, g, edges, cost, V[F].mean(axis=1))
+    return FaceGraph(f, g, edges, cost, centroids)
 
 
 def _keys(pairs, n: int) -> np.ndarray:

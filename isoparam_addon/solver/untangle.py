@@ -77,10 +77,12 @@ def separating_cuts(
     (:func:`without_overlaps`) parts them so in one round where one group per round, its
     chips joined back, takes a round per group (8 rounds on the bunny's Smart UV islands,
     against 2); charting's check parts one group per round, so that no chart is chipped."""
-    if graph is None:
+    mine = np.isin(result.face_island, bad)
+    if graph is None:  # (of the islands in question alone)
         seams = np.vstack([pairs(problem.seams), result.cut_edges])
-        graph = face_graph(result.vertices, result.faces, result.face_island, seams, problem.inner_edges)
-    graph = graph.among(np.isin(result.face_island, bad))
+        faces = np.flatnonzero(mine)
+        graph = face_graph(result.vertices, result.faces, result.face_island, seams, problem.inner_edges, faces)
+    graph = graph.among(mine)
     found = result.overlaps(bad)
     i, j = found.pairs
     if not len(i):
