@@ -19,7 +19,7 @@ from isoparam_addon.solver.align import fit_rotation_scale
 from isoparam_addon.solver.islands import Islands
 from isoparam_addon.solver.local import local_flattening
 from isoparam_addon.solver.mesh import HalfEdges, unique_edges
-from isoparam_addon.solver.refinement import FaceFrames
+from isoparam_addon.solver.per_face import FaceFrames
 from isoparam_addon.solver.seeds import tutte
 from isoparam_addon.solver.topology import build_topology
 from isoparam_addon.solver.weights import reconstruction_weights

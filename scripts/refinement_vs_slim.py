@@ -26,7 +26,7 @@ import time
 import numpy as np
 
 from isoparam_addon.solver import metrics, parametrize
-from isoparam_addon.solver.refinement import FaceFrames
+from isoparam_addon.solver.per_face import FaceFrames
 from isoparam_addon.solver.topology import build_topology
 from isoparam_eval import meshes as ex
 

@@ -8,7 +8,8 @@ from hypothesis import strategies as st
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_addon.solver.islands import Islands
 from isoparam_addon.solver.mesh import HalfEdges
-from isoparam_addon.solver.refinement import _max_step, refine
+from isoparam_addon.solver.per_face import max_step
+from isoparam_addon.solver.refinement import refine
 from isoparam_eval import baselines
 from isoparam_eval import meshes as ex
 
@@ -208,7 +209,7 @@ def test_a_slow_island_goes_on_alone_where_it_left_off(monkeypatch):
 
 def test_conformal_seed_is_a_similarity_on_a_developable_mesh():
     from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.refinement import FaceFrames
+    from isoparam_addon.solver.per_face import FaceFrames
     from isoparam_addon.solver.seeds import lscm
 
     V, F, U = ex.cylinder_strips(30, (6, 15), seed=3)
@@ -225,7 +226,7 @@ def test_conformal_seed_is_stationary_for_the_cauchy_riemann_energy_but_at_two_p
     import scipy.sparse as sp
 
     from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.refinement import FaceFrames
+    from isoparam_addon.solver.per_face import FaceFrames
     from isoparam_addon.solver.seeds import lscm
     from isoparam_addon.solver.topology import build_topology
 
@@ -248,7 +249,7 @@ def test_conformal_seed_is_stationary_for_the_cauchy_riemann_energy_but_at_two_p
 
 def test_tutte_seed_never_folds():
     from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.refinement import FaceFrames
+    from isoparam_addon.solver.per_face import FaceFrames
     from isoparam_addon.solver.seeds import signed_double_areas, tutte
     from isoparam_addon.solver.topology import build_topology
 
@@ -281,7 +282,7 @@ def test_coincident_boundary_vertices_do_not_collapse_the_tutte_seed():
     # found by fuzzing: the cut put the three coincident vertices on the boundary, the
     # chord-length circle put them on one point, and the faces between them had no area;
     # no seed was left, the island was not refined, and 8 of its 20 triangles stayed flipped
-    from isoparam_addon.solver.refinement import FaceFrames
+    from isoparam_addon.solver.per_face import FaceFrames
     from isoparam_addon.solver.seeds import signed_double_areas, tutte
     from isoparam_addon.solver.topology import build_topology
 
@@ -317,7 +318,7 @@ def test_seeds_solved_in_a_fill_reducing_order_are_the_same_seeds():
     same layout as SuperLU's own COLAMD order, on the flagged islands only."""
     from isoparam_addon.solver.embed import plan_elimination
     from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.refinement import FaceFrames
+    from isoparam_addon.solver.per_face import FaceFrames
     from isoparam_addon.solver.seeds import lscm, tutte
     from isoparam_addon.solver.topology import build_topology
 
@@ -511,9 +512,9 @@ def test_capped_step_finds_the_same_first_collapse_as_the_full_one():
     J = rng.standard_normal((4, m))
     J = J[:, J[0] * J[3] - J[1] * J[2] > 1e-3]  # unfolded faces
     dJ = rng.standard_normal(J.shape) * rng.choice([0.1, 1.0, 10.0], size=J.shape[1])
-    full = _max_step(tuple(J), tuple(dJ))
+    full = max_step(tuple(J), tuple(dJ))
     for limit in (0.5, 1.0 / 0.9, 3.0):
-        capped = _max_step(tuple(J), tuple(dJ), limit)
+        capped = max_step(tuple(J), tuple(dJ), limit)
         near = full <= limit
         assert 0.05 < near.mean() < 0.95  # both kinds of face are exercised
         np.testing.assert_array_equal(capped[near], full[near])
@@ -601,8 +602,9 @@ def test_the_energy_reported_is_the_layouts_after_a_restarted_island_is_fitted_t
     # an island whose four-step layout folds is refined without its pins, then scaled onto
     # them; when no stage follows, the energy reported was the one from before that scale
     from isoparam_addon.solver.islands import Islands
+    from isoparam_addon.solver.per_face import FaceFrames
     from isoparam_addon.solver.pins import refine_to_pins
-    from isoparam_addon.solver.refinement import FaceFrames, refine
+    from isoparam_addon.solver.refinement import refine
     from isoparam_addon.solver.topology import build_topology
 
     V, F = ex.peaks(9)

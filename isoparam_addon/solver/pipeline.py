@@ -26,7 +26,8 @@ from .options import Options, Problem
 from .pins import Pins, layout_on_pins, pins_on_islands
 from .placement import place
 from .progress import stage
-from .refinement import Proxy, Refinement, quadratic_proxy, refine, unfolded
+from .proxy import Proxy, quadratic_proxy
+from .refinement import Refinement, refine, unfolded
 from .report import IslandReport, Stats, Timings
 from .result import Parametrization, assemble
 from .topology import Topology, build_topology

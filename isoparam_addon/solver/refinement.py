@@ -57,6 +57,9 @@ step is only tested for crossings at its end: the pair lists, distances and barr
 every boundary at every step cost more than the rest of an iteration.
 
 Pins are Dirichlet constraints: pinned vertices keep their UV and the others adapt.
+
+Here is the descent; the per-face kernels it calls are :mod:`.per_face`'s, the proxy
+:mod:`.proxy`'s and the start :mod:`.start`'s.
 """
 
 from __future__ import annotations
@@ -65,152 +68,29 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
-from ._parallel import solve_columns
 from .contact import Contact, Near
-from .geometry import TINY, conformal_parts, safe_divide, signed_double_areas, triangles
-from .islands import Islands, Labelled
+from .geometry import safe_divide, signed_double_areas
+from .islands import Islands
 from .mesh import unique_edges
 from .ordering import nested_dissection
+from .per_face import FaceFrames, island_energy, max_step, slim_weights, symmetric_dirichlet
 from .progress import tick
-from .seeds import lscm, tutte
+from .proxy import Proxy, quadratic_proxy
+from .start import start_layout
 
-__all__ = ["FaceFrames", "Proxy", "Refinement", "quadratic_proxy", "refine", "slim_weights", "unfolded"]
+__all__ = ["Refinement", "refine", "unfolded"]
 
 _MEMORY = 8  # L-BFGS pairs
-_CLEAR_PRICE = 1.5  # a start that does not overlap itself replaces one that does up to this much energy
 _HANDOVER = 0.25  # once the islands still descending hold at most this share of the rows: own factor
-_COLLAPSED = 1e-6  # a seed face with less UV area than this times its 3D area is crushed
 _WINDOW = 5  # iterations over which the stopping test measures the decrease
 _CRUSHED = 2.0  # an island that starts above this times the isometric energy gets the re-weighted proxy
 _NEAR = 1.1  # ... until it is below this times the isometric energy
 _REFRESH_DROP = 0.7  # factor the re-weighted proxy again once a far island's energy fell this much
 _REFRESH_EVERY = 20  # ... or after this many iterations
 _SLIM_STEPS = 30  # at most this many SLIM steps from a start far from isometric
-_BLOCKS = 8  # the proxy's factors are kept for at most this many groups of islands
 _HALFWAY = 100  # progress: the iteration count reported as half of the refinement (it stops when converged)
 _SLIM_DROP = 0.3  # ... each lowering the energy by this much (relative)
-
-
-class FaceFrames:
-    """Per-face reference triangles and the gradient operators of piecewise-linear maps.
-
-    Face f maps to its own plane as (0, 0), (x1, 0), (x2, y2), y2 > 0. For a function
-    with values (f0, f1, f2) at the corners, ``grad f = (Dx f, Dy f)``.
-
-    Attributes
-    ----------
-    area : (m,) float64
-        3D area (degenerate faces get a tiny positive stand-in, see ``degenerate``).
-    Dx, Dy : (m, n) sparse
-    degenerate : (m,) bool
-    faces : (m, 3) int64
-    """
-
-    def __init__(self, X: np.ndarray, faces: np.ndarray):
-        m, n = len(faces), len(X)
-        self.faces = faces
-        tri = triangles(X, faces)
-        scale = np.maximum(tri.l1, tri.l2)
-        # a face collapsed to a point takes a stand-in size from the mesh (a zero area
-        # would make its gradient 0/0, the whole island's energy NaN)
-        size = float(scale.max(initial=0.0))
-        scale = np.maximum(scale, 1e-9 * (size if size > 0 else 1.0))
-        floor = 1e-6 * scale
-        x1 = np.maximum(tri.l1, floor)
-        x2 = tri.dot / x1
-        y2 = tri.cross / x1
-        self.degenerate = y2 < floor
-        y2 = np.maximum(y2, floor)
-        self.area = 0.5 * x1 * y2
-        dx = np.stack([-1.0 / x1, 1.0 / x1, np.zeros(m)], axis=1)
-        dy = np.stack([(x2 / x1 - 1.0) / y2, -x2 / (x1 * y2), 1.0 / y2], axis=1)
-        rows = np.repeat(np.arange(m), 3)
-        idx = faces.ravel()
-        self.Dx = sp.csr_matrix((dx.ravel(), (rows, idx)), shape=(m, n))
-        self.Dy = sp.csr_matrix((dy.ravel(), (rows, idx)), shape=(m, n))
-        self.DxT, self.DyT = self.Dx.T.tocsr(), self.Dy.T.tocsr()
-
-    def jacobians(self, uv: np.ndarray):
-        """(a, b, c, d) per face: J = [[a, b], [c, d]] = [[u_x, u_y], [v_x, v_y]]."""
-        u, v = uv[:, 0], uv[:, 1]
-        return self.Dx @ u, self.Dy @ u, self.Dx @ v, self.Dy @ v
-
-    def laplacian(self, weights: np.ndarray | None = None) -> sp.csr_matrix:
-        """The cotangent Laplacian ``sum_f w_f A_f (Dx^T Dx + Dy^T Dy)`` (n, n), with
-        per-face ``weights`` (m,) (1 without)."""
-        A = sp.diags(self.area if weights is None else self.area * weights)
-        return (self.DxT @ A @ self.Dx + self.DyT @ A @ self.Dy).tocsr()
-
-
-def _energy_terms(a, b, c, d, area):
-    """Symmetric Dirichlet per face and its derivative with respect to J."""
-    det = a * d - b * c
-    fro = a * a + b * b + c * c + d * d
-    inv = fro / (det * det)  # ||J^{-1}||_F^2 = ||J||_F^2 / det^2 in 2D
-    e = area * (fro + inv)
-    # d/dJ ||J^{-1}||^2 = (2 / det^2) J - (2 ||J||^2 / det^3) cof(J), cof(J) = [[d, -c], [-b, a]]
-    k1 = 2.0 * area * (1.0 + 1.0 / (det * det))
-    k2 = -2.0 * area * fro / (det * det * det)
-    return e, (k1 * a + k2 * d, k1 * b - k2 * c, k1 * c - k2 * b, k1 * d + k2 * a)
-
-
-def _max_step(J, dJ, limit: float = np.inf):
-    """Per face, the first t in (0, ``limit``] with det(J + t dJ) = 0 (det J > 0), inf
-    where there is none: (m,).
-
-    det(J + t dJ) = qa t^2 + qb t + qc with qc = det J > 0. With a finite ``limit`` only
-    the faces whose determinant can reach zero by then get their roots computed: those
-    with det <= 0 at ``limit``, or with a minimum inside (0, limit) that is not positive
-    (a few percent of the faces in a descent).
-    """
-    a, b, c, d = J
-    da, db, dc, dd = dJ
-    qa = da * dd - db * dc
-    qb = a * dd + d * da - b * dc - c * db
-    qc = a * d - b * c
-    t = np.full(len(a), np.inf)
-    if np.isfinite(limit):
-        with np.errstate(invalid="ignore"):
-            dips = (qa > 0) & (qb < 0) & (qb > -2.0 * limit * qa) & (qb * qb >= 4.0 * qa * qc)
-            rows = np.flatnonzero(((qa * limit + qb) * limit + qc <= 0) | dips)
-        t[rows] = _max_step((a[rows], b[rows], c[rows], d[rows]), tuple(x[rows] for x in dJ))
-        return t
-    lin = np.abs(qa) < 1e-30 * np.maximum(np.abs(qb), TINY)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tl = -qc / qb
-        t = np.where(lin & (tl > 0), tl, t)
-        disc = qb * qb - 4.0 * qa * qc
-        sq = np.sqrt(np.maximum(disc, 0.0))
-        r1 = (-qb - sq) / (2.0 * qa)
-        r2 = (-qb + sq) / (2.0 * qa)
-        quad = ~lin & (disc >= 0)
-        r1 = np.where(quad & (r1 > 0), r1, np.inf)
-        r2 = np.where(quad & (r2 > 0), r2, np.inf)
-    return np.minimum(t, np.minimum(r1, r2))
-
-
-def slim_weights(J) -> np.ndarray:
-    """Per face, the scalar weight of SLIM's re-weighted proxy for the symmetric Dirichlet
-    energy, 1 for an isometric face (m,).
-
-    SLIM (Rabinovich et al. 2017, Sec. 4) weighs each singular direction by
-    ``w(s)^2 = f'(s) / (2 (s - 1))``, here with f(s) = s^2 + s^-2:
-    ``w^2 = (s + 1)(s^2 + 1) / s^3``, 4 at s = 1, growing as ``s^-3`` for a crushed
-    direction. One proxy serves u and v only if the weight is the same in both
-    directions: the mean of the two, divided by its isometric value.
-    """
-    a, b, c, d = J
-    q, r = conformal_parts(a, b, c, d)
-    s1 = np.maximum(q + r, 1e-50)  # a collapsed face weighs as much as a float allows
-    s2 = np.maximum(q - r, 1e-50)  # (fold-free: q > r)
-    w = sum((s + 1.0) * (s * s + 1.0) / (s * s * s) for s in (s1, s2)) / 8.0
-    # on a grid of 2^(1/8) steps: the proxy, and with it the descent, must not follow
-    # rounding (a layout that differs by 1e-9 would otherwise descend to points 1e-4
-    # apart); a face's weight is off by 4% at most, which the quasi-Newton pairs absorb
-    return np.exp2(np.round(8.0 * np.log2(np.minimum(w, 1e150))) / 8.0)
 
 
 @dataclass
@@ -272,102 +152,10 @@ class Refinement:
         self.energy.append(float(safe_divide(self.island_energy.sum(), self.island_area.sum())))
 
 
-@dataclass
-class _Block:
-    """A factor of the proxy's rows of some islands (islands are independent blocks of H)."""
-
-    islands: np.ndarray  # (n_islands,) bool
-    rows: np.ndarray  # their free rows, in elimination order
-    lu: object
-
-
-@dataclass
-class Proxy:
-    """The descent's quadratic proxy ``H = 2 (K_w + diag(whisper))``, factored.
-
-    ``K_w`` is the cotangent Laplacian with per-face ``weights`` (1: the cotangent
-    Laplacian itself, which depends on the mesh and the pins only, so :func:`.solve`
-    factors it in a worker thread while Step 3 runs), and the whisper, a tiny multiple of
-    the lumped mass per island, fixes the translation of islands without pins.
-
-    The factors are kept per group of islands (``blocks``): re-weighting some islands
-    factors their rows again, not every island's (at most ``_BLOCKS`` groups; beyond, one).
-    """
-
-    frames: FaceFrames
-    weights: np.ndarray  # (m,)
-    H: sp.csr_matrix
-    whisper: np.ndarray  # (n,)
-    pinned: np.ndarray  # (n,) bool
-    perm: np.ndarray  # the free vertices in elimination order
-    blocks: list[_Block]
-
-    def solve(self, g: np.ndarray) -> np.ndarray:
-        """``H^{-1} g`` on the free rows (n, 2), zero on the pinned ones."""
-        out = np.zeros_like(g)
-        for block in self.blocks:  # a few groups of islands
-            if block.lu is not None:
-                out[block.rows] = solve_columns(block.lu, np.take(g, block.rows, axis=0))
-        return out
-
-    def reweighted(self, islands: Islands, weights: np.ndarray, which: np.ndarray) -> Proxy:
-        """The proxy with other face weights (m,), which differ on the islands ``which``
-        (n_islands,) bool only: their rows are factored again, in the same order."""
-        proxy = _factor(self.frames, islands, self.pinned, self.perm, weights, factor=False)
-        blocks: list[_Block] = []
-        for block in self.blocks:
-            if not (block.islands & which).any():
-                blocks.append(block)
-                continue
-            blocks += [
-                _block(proxy.H, islands, self.perm, part)
-                for part in (block.islands & which, block.islands & ~which)
-                if part.any()
-            ]
-        if len(blocks) > _BLOCKS:  # scattered re-weighting: one factor again
-            blocks = [_block(proxy.H, islands, self.perm, np.ones(islands.n, dtype=bool))]
-        proxy.blocks = blocks
-        return proxy
-
-
-def quadratic_proxy(X, faces, islands: Islands, pinned=None, order=None, weights=None) -> Proxy:
-    """Build and factor the proxy (see :class:`Proxy`) for ``pinned`` (n,) bool vertices,
-    with per-face ``weights`` (m,) (1: the cotangent Laplacian), eliminating in ``order``
-    (n,) (e.g. Step 3's nested dissection) when given."""
-    n = len(X)
-    pinned = np.zeros(n, dtype=bool) if pinned is None else pinned
-    frames = FaceFrames(X, faces)
-    perm = order[~pinned[order]] if order is not None else np.flatnonzero(~pinned)
-    return _factor(frames, islands, pinned, perm, np.ones(len(faces)) if weights is None else weights)
-
-
-def _block(H: sp.csr_matrix, islands: Islands, perm: np.ndarray, which: np.ndarray) -> _Block:
-    """The factor of ``H``'s free rows (``perm``, in elimination order) of the islands
-    ``which`` (n_islands,) bool."""
-    rows = perm[which[islands.label[perm]]]
-    lu = splu(H[rows][:, rows].tocsc(), permc_spec="NATURAL") if len(rows) else None
-    return _Block(which, rows, lu)
-
-
-def _factor(frames: FaceFrames, islands: Islands, pinned, perm, weights, factor: bool = True) -> Proxy:
-    K = frames.laplacian(weights)
-    n = K.shape[0]
-    # a whisper of the mass matrix pins the translations of islands without pins, scaled
-    # per island so that each island's block of H is what it would be alone
-    mass = np.bincount(frames.faces.ravel(), np.repeat(frames.area / 3, 3), minlength=n)
-    size = np.maximum(islands.size, 1)
-    reg = 1e-9 * np.bincount(islands.label, K.diagonal(), minlength=islands.n) / size
-    mean_mass = np.bincount(islands.label, mass, minlength=islands.n) / size
-    whisper = safe_divide(reg, mean_mass)[islands.label] * mass
-    H = (2.0 * (K + sp.diags(whisper))).tocsr()
-    every = np.ones(islands.n, dtype=bool)
-    return Proxy(frames, weights, H, whisper, pinned, perm, [_block(H, islands, perm, every)] if factor else [])
-
-
 def unfolded(X, faces, uv, islands: Islands, he_twin, order=None) -> Refinement:
     """The layout ``uv`` (n, 2) with no descent, but every island that folds a face laid out
     again as the refinement would start it (the lowest-energy fold-free layout among it,
-    a conformal map and a Tutte embedding, see :func:`_start`): the layout without
+    a conformal map and a Tutte embedding, see :func:`.start.start_layout`): the layout without
     refinement (``refine=0``). An island stays as it is if neither map is fold-free (or
     their solve fails); islands that only crush faces, and faces without 3D area, are
     left as they are."""
@@ -382,96 +170,12 @@ def unfolded(X, faces, uv, islands: Islands, he_twin, order=None) -> Refinement:
         folded = per_face.sum(folds & ~frames.degenerate) > 0
         if folded.any():
             no_pins = np.zeros(len(X), dtype=bool)
-            out.uv, _, out.restarted_conformal, out.restarted_tutte = _start(
+            out.uv, _, out.restarted_conformal, out.restarted_tutte = start_layout(
                 X, faces, out.uv, he_twin, islands, frames, per_face, no_pins, order, folded
             )
         out.folded = int((signed_double_areas(out.uv, faces) <= 0).sum())
     out.seconds = time.perf_counter() - t0
     return out
-
-
-def _start(
-    X,
-    faces,
-    x,
-    he_twin,
-    islands: Islands,
-    frames: FaceFrames,
-    per_face: Labelled,
-    pinned,
-    order=None,
-    poor=None,
-    crossed=None,
-):
-    """The start of every island: its seed ``x`` (n, 2), unless the seed folds or crushes a
-    face (UV area below ``_COLLAPSED`` times its 3D area), or overlaps itself (``crossed``:
-    a function of a layout, per island whether its boundary crosses itself, if given),
-    and the island has no pins (``poor`` (n_islands,) bool, if given, names the islands
-    instead of this rule); then the lowest-energy layout that neither folds nor overlaps
-    itself among the seed, a conformal map and (where the conformal map fails too) a
-    Tutte embedding (one-to-one: Tutte 1963, Floater 2003).
-
-    Returns the start, the islands that still fold, and those started from a conformal
-    map and from a Tutte embedding, (n_islands,) bool each.
-    """
-    area2 = 2.0 * frames.area
-    det = signed_double_areas(x, faces) / area2
-    never = np.zeros(islands.n, dtype=bool)
-    overlapping = never if crossed is None else crossed(x, None)
-    crushed = per_face.sum(det <= _COLLAPSED) > 0
-    if poor is None:
-        poor = (crushed | overlapping) & (np.bincount(islands.label, pinned, minlength=islands.n) == 0)
-    else:
-        crushed = poor
-    none = np.zeros(islands.n, dtype=bool)
-    if not poor.any():
-        return x, per_face.sum(det <= 0) > 0, none, none
-    # per candidate (the seed, a conformal map, a Tutte embedding): energy (inf where it
-    # folds or was not made) and whether it overlaps itself
-    energy = [np.where(per_face.sum(det <= 0) > 0, np.inf, _island_energy(frames, per_face, x))]
-    overlap = [overlapping]
-    candidates = [x]
-    want = poor
-    for seed in (lscm, tutte):
-        if not want.any():
-            break
-        try:
-            y = (
-                lscm(X, faces, islands, frames, want, order)
-                if seed is lscm
-                else tutte(X, faces, he_twin, islands, frames, want, order)
-            )
-        except RuntimeError:  # SuperLU: "Factor is exactly singular"; they keep what they have
-            break
-        d = signed_double_areas(y, faces) / area2
-        folded = per_face.sum(d <= 0) > 0
-        overlaps = never if crossed is None else crossed(y, want)
-        energy.append(np.where(want & ~folded, _island_energy(frames, per_face, y), np.inf))
-        overlap.append(overlaps)
-        candidates.append(y)
-        # a Tutte embedding only where the conformal map folds, crushes or overlaps itself
-        want = want & (folded | (per_face.sum(d <= _COLLAPSED) > 0) | overlaps)
-    E, crossing = np.array(energy), np.array(overlap)
-    # the lowest energy that does not fold; if one that does not overlap itself either starts
-    # at most _CLEAR_PRICE times that, the lowest such (the refinement then keeps it from
-    # overlapping); an island whose seed only overlaps keeps it unless such a one is found
-    lowest = E.min(axis=0)
-    clear = ~crossing & (E <= _CLEAR_PRICE * lowest) & np.isfinite(E)
-    chosen = np.where(clear.any(axis=0), np.argmin(np.where(clear, E, np.inf), axis=0), np.argmin(E, axis=0))
-    chosen = np.where(poor & (crushed | clear.any(axis=0)), chosen, 0)
-    x = candidates[0]
-    for k in range(1, len(candidates)):
-        x = np.where((chosen == k)[islands.label][:, None], candidates[k], x)
-    still = per_face.sum(signed_double_areas(x, faces) <= 0) > 0
-    return x, still, chosen == 1, chosen == 2
-
-
-def _island_energy(frames: FaceFrames, per_face: Labelled, uv: np.ndarray) -> np.ndarray:
-    """Per-island symmetric Dirichlet energy of a layout (inf where a face folds)."""
-    a, b, c, d = frames.jacobians(uv)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        e, _ = _energy_terms(a, b, c, d, frames.area)
-    return per_face.sum(np.where(a * d - b * c > 0, e, np.inf))
 
 
 class _Descent:
@@ -509,7 +213,7 @@ class _Descent:
         self.island_area = self.per_face.sum(self.area)
         self.settled = np.zeros(self.islands.n, dtype=bool)
         if settle:
-            E = _island_energy(self.frames, self.per_face, self.x)
+            E = island_energy(self.frames, self.per_face, self.x)
             self.settled = active & ~self.pinned_island() & (E <= (1.0 + self.tol) * 4.0 * self.island_area)
             active = active & ~self.settled
         # what the islands left as they are add to the layout's energy per unit area
@@ -649,7 +353,7 @@ class _Descent:
         """Per-island energy (0 for islands left alone: they may hold folds) and the
         per-face derivatives dE/dJ."""
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            e, G = _energy_terms(*J, self.area)
+            e, G = symmetric_dirichlet(*J, self.area)
         return self.per_face.sum(e if self.every_face_live else np.where(self.live_face, e, 0.0)), G
 
     def gradient(self, G) -> np.ndarray:
@@ -721,7 +425,7 @@ class _Descent:
         energy; those islands stop), the Jacobians, energies and dE/dJ there."""
         per_face, active = self.per_face, self.active
         dJ = self.frames.jacobians(p)
-        t = np.where(active, np.minimum(1.0, 0.9 * per_face.min(_max_step(self.J, dJ, 1.0 / 0.9))), 0.0)
+        t = np.where(active, np.minimum(1.0, 0.9 * per_face.min(max_step(self.J, dJ, 1.0 / 0.9))), 0.0)
         searching = active.copy()
         Jt: tuple | None = None
         Gt: list = []
@@ -740,7 +444,7 @@ class _Descent:
                 tf = t[per_face.label[f]]
                 Jf = [np.take(j, f) + tf * np.take(dj, f) for j, dj in zip(self.J, dJ)]
                 with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                    ef, Gf = _energy_terms(Jf[0], Jf[1], Jf[2], Jf[3], np.take(self.area, f))
+                    ef, Gf = symmetric_dirichlet(Jf[0], Jf[1], Jf[2], Jf[3], np.take(self.area, f))
                 for k in range(4):
                     Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
                 Et = np.where(searching, np.bincount(per_face.label[f], ef, minlength=self.islands.n), Et)
@@ -819,7 +523,7 @@ def _local_global(desc: _Descent, steps: int) -> None:
             desc.refresh(0, which=far)
         p = np.where(islands.spread(stepping), _global_step(desc) - desc.x, 0.0)
         dJ = fr.jacobians(p)
-        t = np.where(far, np.minimum(1.0, 0.9 * per_face.min(_max_step(desc.J, dJ, 1.0 / 0.9))), 1.0)
+        t = np.where(far, np.minimum(1.0, 0.9 * per_face.min(max_step(desc.J, dJ, 1.0 / 0.9))), 1.0)
         t = np.where(stepping, t, 0.0)
         near, meet = desc.near_step(p, t, t > 0)
         t = np.minimum(t, 0.9 * desc.first_contact(p, meet))  # (no boundary crosses on the way)
@@ -973,7 +677,7 @@ def refine(
     contact = Contact.of(X, faces, islands.label, k) if no_overlaps else None
     if carry is None:
         crossed = None if contact is None else contact.crossing
-        x, stuck, out.restarted_conformal, out.restarted_tutte = _start(
+        x, stuck, out.restarted_conformal, out.restarted_tutte = start_layout(
             X, faces, out.uv, he_twin, islands, proxy.frames, per_face, pinned, order, crossed=crossed
         )
     # islands that still fold, and islands with nothing free, are left as they are

@@ -44,7 +44,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from .geometry import corner_angles, safe_divide
-from .refinement import FaceFrames
+from .per_face import FaceFrames
 
 __all__ = ["Prediction", "normal_stress", "predict"]
 
