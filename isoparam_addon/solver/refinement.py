@@ -199,7 +199,13 @@ class _Descent:
         self.refreshed_at = np.zeros(islands.n, dtype=np.int64)
         self.fixed = np.flatnonzero(pinned)
 
-    def begin(self, active: np.ndarray, settle: bool = True, watched=None, start=None) -> None:
+    def begin(
+        self,
+        active: np.ndarray,
+        settle: bool = True,
+        watched: np.ndarray | None = None,
+        start: np.ndarray | None = None,
+    ) -> None:
         """Start descending the ``active`` islands (the others are left as they are).
 
         ``settle``: an unpinned island whose start is within the tolerance of the
