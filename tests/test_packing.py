@@ -176,3 +176,43 @@ def test_a_long_strip_keeps_the_raster_small():
     assert res.cell > 1 / 1000  # fewer than a thousand cells along the square's side
     assert islands_overlapping(res.uv, island) == 0
     assert res.uv.min() >= 0.001 - 1e-12 and res.uv.max() <= 0.999 + 1e-12
+
+
+def _grid(nx: int, ny: int, warp=None):
+    """A grid of ``nx`` by ``ny`` squares, two triangles each, counter-clockwise, its
+    corners mapped by ``warp`` (x, y) -> (u, v)."""
+    x, y = np.meshgrid(np.arange(nx + 1.0), np.arange(ny + 1.0), indexing="ij")
+    p = np.stack([x, y], axis=-1) if warp is None else warp(x, y)
+    a, b, c, d = p[:-1, :-1], p[1:, :-1], p[1:, 1:], p[:-1, 1:]
+    return np.concatenate([np.stack([a, b, c], 2).reshape(-1, 3, 2), np.stack([a, c, d], 2).reshape(-1, 3, 2)])
+
+
+def test_rings_folds_and_dense_islands_keep_their_margin():
+    # the raster marks an island's cells from the triangles on its outline and fills what
+    # they enclose: a ring (a hole inside), a sheet folded over itself (its fold is no
+    # outline edge), a dense disk, and small squares that would fit in the ring's hole or
+    # under the fold must all still end apart
+    def ring(x, y):  # 48 x 3 squares bent into an annulus, radii 6 to 9
+        angle, radius = (x % 48) * (2 * np.pi / 48), 6.0 + y  # closed: the last column is the first
+        return np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=-1)
+
+    def fold(x, y):  # 8 x 4 squares, the right three laid back over the left five
+        return np.stack([np.where(x > 5, 10 - x, x), y], axis=-1)
+
+    def disk(x, y):  # 60 x 60 squares squeezed into a disk of radius 5
+        s, t = x / 30 - 1, y / 30 - 1
+        return 5 * np.stack([s * np.sqrt(1 - t * t / 2), t * np.sqrt(1 - s * s / 2)], axis=-1)
+
+    parts = [_grid(48, 3, ring), _grid(8, 4, fold), _grid(60, 60, disk)] + [_grid(1, 1) * 1.5] * 40
+    uv = np.concatenate(parts)
+    island = np.repeat(np.arange(len(parts)), [len(p) for p in parts])
+    outline = packing._outline(uv, island)
+    folded = np.flatnonzero(island == 1)[metrics.corner_signed_areas(parts[1]) < 0]
+    assert outline[folded].all()  # the fold's outline runs along no open edge
+    assert 0 < outline[island == 2].sum() <= 4 * 60  # the disk's outline, none of its inside
+    assert outline[island == 0].sum() == 2 * 48  # the ring's, inside and out
+    for margin in (0.0, 0.004):
+        out = packing.pack_layout(uv, island, len(parts), margin=margin).uv
+        assert islands_overlapping(out, island) == 0
+        if margin:
+            assert least_gap(out, island, spacing=margin / 2) >= 2 * margin * (1 - 1e-9)

@@ -4,9 +4,11 @@ more of the texture's texels land on the model.
 1. Every island gets a few frames: the turn to its tightest box (the least-area bounding
    rectangle, searched over angles), the turn to its smallest bounding square, and, for
    the largest islands, turns in between.
-2. The largest islands (``_SHAPED``) are rasterized conservatively, grown by half the
-   margin, at a cell that puts about ``_CELLS`` cells along the side of a square as large
-   as all the boxes (or along half the longest island, where that is longer).
+2. The largest islands (``_SHAPED``, of ``_SHAPED_CELLS`` cells or more) are rasterized
+   conservatively (the triangles on their outline, and the cells those enclose: the
+   work follows the outlines, not the faces), grown by half the margin, at a cell that
+   puts about ``_CELLS`` cells along the side of a square as large as all the boxes (or
+   along half the longest island, where that is longer).
    They go in one at a time, largest first, each in the best of its frames and their four
    quarter turns, at the free position that keeps the layout's bounding square smallest,
    then its bounding box, then nearest the origin: the rule of xatlas's packer (J. Young,
@@ -32,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft
+import scipy.ndimage
 
 from . import progress
 from .geometry import TINY, corner_signed_areas
@@ -43,6 +46,7 @@ __all__ = ["Packing", "pack_layout"]
 
 _CELLS = 200  # cells along the side of a square as large as the islands' boxes together
 _SHAPED = 48  # the largest islands, placed by their cells; the rest by their boxes
+_SHAPED_CELLS = 64  # ... if their tightest box spans this many cells at least
 _TURNED = 4  # the largest islands, tried in more frames (turns between the two boxes')
 _BETWEEN = 3  # turns of pi / 8 apart tried beyond the tightest box's
 _FINER = 2  # the boxes' grid: cells this many times finer
@@ -108,8 +112,11 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
     k = len(present)
     corners = Islands(np.repeat(label, 3), k)
     flat = pts.reshape(-1, 2)
-    frames = list(_tightest_boxes(flat, corners))
-    frames += [_frame_at(flat, corners, frames[0].angle + j * np.pi / 8) for j in range(1, _BETWEEN + 1)]
+    outline = _outline(pts, label)
+    rim = np.flatnonzero(np.repeat(outline, 3))  # the rows that bound the islands
+    edge = Islands(corners.label[rim], k)
+    frames = list(_tightest_boxes(flat[rim], edge))
+    frames += [_frame_at(flat[rim], edge, frames[0].angle + j * np.pi / 8) for j in range(1, _BETWEEN + 1)]
     area = float(np.abs(corner_signed_areas(pts)).sum())
     boxes_area = float(np.prod(frames[0].size, axis=1).sum())
     room = max(boxes_area, area, TINY)
@@ -122,8 +129,8 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
     with progress.stage("packing", 0.0, 1.0):
         for _ in range(4):
             gap = 2.0 * margin * side * max(aspect, 1.0)
-            placed, shaped = _pack_units(flat, corners, frames, cell, 0.5 * gap, aspect)
-            placed = _squarest(placed, aspect)
+            placed, shaped = _pack_units(flat, corners, outline, frames, cell, 0.5 * gap, aspect)
+            placed = _squarest(placed, rim, aspect)
             lo = placed.min(axis=0)
             ext = placed.max(axis=0) - lo
             side = max(ext[0] / aspect, ext[1], TINY) / (1.0 - 2.0 * margin)
@@ -138,14 +145,15 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
     return Packing(result, cell / side, shaped)
 
 
-def _squarest(points: np.ndarray, aspect: float) -> np.ndarray:
+def _squarest(points: np.ndarray, rim: np.ndarray, aspect: float) -> np.ndarray:
     """The packed layout ``points`` (r, 2) turned as one (rigidly: nothing moves apart or
     together) to the angle whose bounding box, in the texture's shape, is smallest; kept as
     it is unless that saves more than a tie. Packed along the axes, a layout often leaves
     its corners empty: turned, its square shrinks (Blender's packer turns its first
-    islands as a group this way, ``rotate_inside_square``)."""
-    whole = Islands(np.zeros(len(points), dtype=np.int64), 1)
-    hull = points[_hull_candidates(points, whole)]
+    islands as a group this way, ``rotate_inside_square``). ``rim``: the rows that may
+    bound the layout (the islands' outlines)."""
+    whole = Islands(np.zeros(len(rim), dtype=np.int64), 1)
+    hull = points[rim][_hull_candidates(points[rim], whole)]
     hull = hull - hull.mean(axis=0)
 
     def side(angle):
@@ -161,7 +169,7 @@ def _squarest(points: np.ndarray, aspect: float) -> np.ndarray:
     best = fine[int(np.argmin(side(fine)))]
     if side(np.array([best]))[0] >= side(np.zeros(1))[0] * (1 - _TIE):
         return points
-    return _turn(points, whole, np.array([best]))
+    return _turn(points, Islands(np.zeros(len(points), dtype=np.int64), 1), np.array([best]))
 
 
 # ---------------------------------------------------------------------------- boxes
@@ -253,23 +261,31 @@ def _framed(flat, corners: Islands, frame: _Frame) -> np.ndarray:
     return _turn(flat, corners, frame.angle) - corners.expand(frame.lo)
 
 
-def _pack_units(flat, corners: Islands, frames: list[_Frame], cell: float, pad: float, aspect: float):
+def _pack_units(flat, corners: Islands, outline, frames: list[_Frame], cell: float, pad: float, aspect: float):
     """Place every island of the rows ``flat``, each grown by ``pad``; the rows where they
-    went (layout units) and the number of islands placed by their shapes."""
+    went (layout units) and the number of islands placed by their shapes. ``outline``:
+    the triangles that mark an island's cells (:func:`_outline`)."""
     n, nf = corners.n, len(frames)
     rank = np.empty(n, dtype=np.int64)
     box = np.prod(frames[0].size, axis=1)
     alike = np.round(box / max(float(box.max()) * _TIE, TINY))  # (islands alike up to rounding tie)
     rank[np.lexsort((np.arange(n), -alike))] = np.arange(n)
-    shaped = rank < _SHAPED
+    # shapes for the largest islands only, and only those whose box spans _SHAPED_CELLS
+    # cells: a smaller one differs from its box by a few cells, where its FFT would cost
+    # the whole layout's
+    large = int((box >= _SHAPED_CELLS * cell * cell).sum())
+    shaped = rank < min(_SHAPED, large)
     n_shaped = int(shaped.sum())
     by_rank = np.argsort(rank)[:n_shaped]
     # the shapes: one per frame of each large island, numbered nf * rank + frame
     tri_label = corners.label[::3]
-    pick = np.flatnonzero(shaped[tri_label])
+    pick = np.flatnonzero(shaped[tri_label] & outline)
     r = rank[tri_label[pick]]
-    coords = np.concatenate([(_framed(flat, corners, f) + pad).reshape(-1, 3, 2)[pick] for f in frames])
+    rows = (3 * pick[:, None] + np.arange(3)).ravel()
+    edge = Islands(corners.label[rows], n)
+    coords = np.concatenate([(_framed(flat[rows], edge, f) + pad).reshape(-1, 3, 2) for f in frames])
     masks, dims = _rasterize(coords, np.concatenate([nf * r + f for f in range(nf)]), nf * n_shaped, cell, pad)
+    masks = [scipy.ndimage.binary_fill_holes(m) for m in masks]  # the cells the outlines enclose
     # the small islands' boxes, on a finer grid (closed: a side on a cell's edge takes the next)
     fine = cell / _FINER
     unit, offset, unit_size = _box_units(frames[0].size, ~shaped, pad, fine)
@@ -303,6 +319,33 @@ def _pack_units(flat, corners: Islands, frames: list[_Frame], cell: float, pad: 
     px = np.select([qr == 1, qr == 2, qr == 3], [H - y, W - x, y], x)
     py = np.select([qr == 1, qr == 2, qr == 3], [x, H - y, W - x], y)
     return np.stack([px, py], axis=1) + corners.expand(at), n_shaped
+
+
+def _outline(pts: np.ndarray, label: np.ndarray) -> np.ndarray:
+    """Per triangle of ``pts`` (t, 3, 2) (islands ``label`` (t,)), whether it may touch its
+    island's outline: it has an edge that no other triangle of the island shares (corners
+    matched by their UVs; an edge shared three times counts as open), or it is flipped or
+    degenerate against its island's orientation.
+
+    An island where no triangle folds is locally one-to-one away from such triangles, so
+    every point of the outline of its faces lies on one of them: the cells they mark, and
+    every cell those enclose, are all the cells the island touches. Rasterizing them
+    alone makes the raster's work follow the outlines, not the faces."""
+    t = len(pts)
+    flat = pts.reshape(-1, 2)
+    lab3 = np.repeat(label, 3)
+    order = np.lexsort((flat[:, 1], flat[:, 0], lab3))
+    new = np.ones(3 * t, dtype=bool)
+    new[1:] = (lab3[order][1:] != lab3[order][:-1]) | (flat[order][1:] != flat[order][:-1]).any(axis=1)
+    corner = np.empty(3 * t, dtype=np.int64)
+    corner[order] = np.cumsum(new) - 1
+    a = corner.reshape(-1, 3)
+    b = np.roll(a, -1, axis=1)
+    _, edge, shared = np.unique(np.minimum(a, b) * (3 * t) + np.maximum(a, b), return_inverse=True, return_counts=True)
+    open_edge = (shared[edge.ravel()] != 2).reshape(-1, 3).any(axis=1)
+    area = corner_signed_areas(pts)
+    way = np.bincount(label, weights=area, minlength=int(label.max(initial=0)) + 1)[label]
+    return open_edge | (area * way <= 0.0)
 
 
 def _box_units(size, small, pad: float, fine: float):
