@@ -5,7 +5,7 @@ We need, per island, the two non-constant vectors of the near-null space of
 ``{1, u, v}`` (three zero eigenvalues), so "drop the lowest eigenvector" is read as
 "remove the constant from the null space": we work in the complement of ``1``.
 
-Why not the obvious routes (the measurements are in docs/history.md):
+Why not the obvious routes:
 
 * shift-invert ``eigsh`` on M factors M itself: M squares the conditioning of L, has
   2-ring sparsity and fills SuperLU heavily; it stalls beyond ~100k vertices;

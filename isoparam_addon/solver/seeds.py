@@ -71,8 +71,8 @@ def lscm(X, faces, islands: Islands, frames, which: np.ndarray, order=None) -> n
     The residual ``(u_x - v_y, u_y + v_x)`` is ``(Dx + i Dy) z`` for ``z = u + i v``, so the
     normal equations are one Hermitian system in n complex unknowns rather than a real
     one in 2n: a quarter of the structural nonzeros for SuperLU, whose time follows its
-    symbolic work more than its arithmetic (about half the time of the real system, the
-    same map to rounding; docs/history.md).
+    symbolic work more than its arithmetic: about half the time of the real system, for
+    the same map to rounding.
     """
     n = len(X)
     sel_v = which[islands.label]
