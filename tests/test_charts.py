@@ -6,12 +6,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import metrics, parametrize
+from isoparam_addon.solver import WarningKind, metrics, parametrize
 from isoparam_addon.solver.charts import energy_budget
+from isoparam_addon.solver.report import OPENED_KINDS
 from isoparam_eval import meshes as ex
 
 SPOT = Path(__file__).resolve().parent / "data" / "spot.obj"
 CHARTS = dict(charts=True, refine=1000, split_overlaps=True)  # as the operator unwraps
+CUTS = OPENED_KINDS | {WarningKind.CUT_APART}  # every warning that says an island was cut
 
 
 def _seam_share(V, F, corner_uv) -> float:
@@ -32,10 +34,10 @@ def test_a_closed_cow_becomes_few_charts_with_short_seams():
     assert _seam_share(V, F, r.corner_uv) <= 0.07 / 2
     assert per.flipped.sum() == 0 and r.flipped.sum() == 0
     assert metrics.self_overlaps(V, F, r.corner_uv).islands == 0
-    note = [w for w in r.warnings if w.kind == "charts"]
+    note = [w for w in r.warnings if w.kind is WarningKind.CHARTS]
     assert len(note) == 1 and note[0].count == r.n_islands == r.stats.charts
     assert "1 island was cut into" in note[0].text and "not a disk" in note[0].text
-    assert not [w for w in r.warnings if w.kind.startswith("cut_")]  # said by the note instead
+    assert not [w for w in r.warnings if w.kind in CUTS]  # said by the note instead
 
 
 def test_suzanne_with_no_seams_is_charted_within_budget():
@@ -54,14 +56,14 @@ def test_a_lower_budget_costs_more_charts_and_stretches_less():
     assert energy[1] < energy[0] <= energy_budget(1.3)
     assert tight.n_islands > loose.n_islands
     # a budget the rounds do not reach is warned about, with what was reached
-    over = [w.text for w in tight.warnings if w.kind == "over_budget"]
+    over = [w.text for w in tight.warnings if w.kind is WarningKind.OVER_BUDGET]
     assert bool(over) == (energy[1] > energy_budget(1.1))
 
 
 def test_an_artists_islands_stay_as_marked():
     V, F, seams = ex.load_obj(SPOT)  # 13 islands, some beyond the budget (up to 5.4)
     r = parametrize(V, F, seams, **CHARTS)
-    assert r.n_islands == 13 and not [w for w in r.warnings if w.kind == "charts"]
+    assert r.n_islands == 13 and not [w for w in r.warnings if w.kind is WarningKind.CHARTS]
 
 
 def test_a_nearly_closed_disk_is_charted():
@@ -70,14 +72,14 @@ def test_a_nearly_closed_disk_is_charted():
     F = F[~(F == 0).any(axis=1)]  # the faces around one vertex removed: a hole
     r = parametrize(V, F, **CHARTS)
     assert r.n_islands > 1 and r.flipped.sum() == 0
-    assert "curved like a closed part" in next(w.text for w in r.warnings if w.kind == "charts")
+    assert "curved like a closed part" in next(w.text for w in r.warnings if w.kind is WarningKind.CHARTS)
 
 
 def test_a_developable_island_within_budget_stays_whole():
     V, F, _ = ex.s_surface(30, 8)
     r = parametrize(V, F, **CHARTS)
     assert r.n_islands == 1 and len(r.cut_edges) == 0
-    assert not [w for w in r.warnings if w.kind == "charts"]
+    assert not [w for w in r.warnings if w.kind is WarningKind.CHARTS]
 
 
 @pytest.mark.parametrize("height", [1.0, 1.5, 2.0])
@@ -90,8 +92,8 @@ def test_an_open_part_with_no_seams_is_charted_until_within_budget(height):
     per = metrics.per_island(V, F, r.corner_uv, r.face_island)
     assert per.mean_symmetric_dirichlet <= energy_budget(1.18)
     assert per.flipped.sum() == 0 and metrics.self_overlaps(V, F, r.corner_uv).islands == 0
-    assert "stretched beyond 1.18" in next(w.text for w in r.warnings if w.kind == "charts")
-    assert not [w for w in r.warnings if w.kind == "over_budget"]
+    assert "stretched beyond 1.18" in next(w.text for w in r.warnings if w.kind is WarningKind.CHARTS)
+    assert not [w for w in r.warnings if w.kind is WarningKind.OVER_BUDGET]
 
 
 def test_islands_the_artists_seams_bound_are_charted_on_request_only():
@@ -99,8 +101,8 @@ def test_islands_the_artists_seams_bound_are_charted_on_request_only():
     seam = np.flatnonzero(np.isclose(V[:, 0], 0.0))  # a seam across the middle: two islands
     seams = np.stack([seam[:-1], seam[1:]], axis=1)
     kept = parametrize(V, F, seams, **CHARTS)
-    assert kept.n_islands == 2 and not [w for w in kept.warnings if w.kind == "charts"]
-    over = [w for w in kept.warnings if w.kind == "over_budget"]
+    assert kept.n_islands == 2 and not [w for w in kept.warnings if w.kind is WarningKind.CHARTS]
+    over = [w for w in kept.warnings if w.kind is WarningKind.OVER_BUDGET]
     assert not over  # the artist's islands: their stretch is theirs to judge
     r = parametrize(V, F, seams, chart_disks=True, **CHARTS)
     assert r.n_islands > 2
@@ -115,7 +117,7 @@ def test_a_squeezed_tip_is_slit_open_not_cut_off():
     per = metrics.per_island(V, F, r.corner_uv, r.face_island)
     assert r.n_islands == 1 and len(r.cut_edges) > 0  # slit, one chart
     assert per.mean_symmetric_dirichlet <= energy_budget(1.18) and per.flipped.sum() == 0
-    note = next(w.text for w in r.warnings if w.kind == "charts")
+    note = next(w.text for w in r.warnings if w.kind is WarningKind.CHARTS)
     assert "1 island was slit open (1 stretched beyond 1.18" in note
 
 
@@ -126,7 +128,7 @@ def test_an_island_with_pins_is_not_charted():
     uv = np.zeros(F.shape + (2,))
     r = parametrize(V, F, inner_edges=diagonals, pins=(pinned, uv), **CHARTS)
     assert r.n_islands == 1  # cut open as far as it must be, no more
-    assert [w.kind for w in r.warnings if w.kind.startswith("cut_") or w.kind == "charts"] == ["cut_closed"]
+    assert [w.kind for w in r.warnings if w.kind in CUTS or w.kind is WarningKind.CHARTS] == [WarningKind.CUT_CLOSED]
 
 
 def test_charts_keep_off_polygon_diagonals():
@@ -143,7 +145,7 @@ def test_charts_of_the_paper_method_alone():
     V, F, _ = ex.load_obj(SPOT)
     r = parametrize(V, F, charts=True, refine=0, split_overlaps=True)
     assert np.isfinite(r.corner_uv).all() and r.stats.charts == r.n_islands > 1
-    assert ("flipped" in [w.kind for w in r.warnings]) == bool(r.flipped.any())
+    assert (WarningKind.FLIPPED in [w.kind for w in r.warnings]) == bool(r.flipped.any())
 
 
 def test_a_torus_within_budget_is_only_opened_and_says_so():
@@ -151,7 +153,7 @@ def test_a_torus_within_budget_is_only_opened_and_says_so():
     r = parametrize(V, F, **CHARTS)
     assert r.n_islands == 1 and r.flipped.sum() == 0
     kinds = [w.kind for w in r.warnings]
-    assert "cut_closed" in kinds and "cut_handles" in kinds and "charts" not in kinds
+    assert WarningKind.CUT_CLOSED in kinds and WarningKind.CUT_HANDLES in kinds and WarningKind.CHARTS not in kinds
 
 
 def test_rounding_of_the_input_does_not_move_the_charts():
@@ -190,10 +192,11 @@ def test_an_island_cut_apart_where_it_overlaps_is_not_counted_as_charted():
     (Vs, Fs), (Vr, Fr) = ex.sphere(2), ex.helical_ribbon()
     V, F = np.vstack([Vs, Vr + [10.0, 0.0, 0.0]]), np.vstack([Fs, Fr + len(Vs)])
     r = parametrize(V, F, refine=1000, split_overlaps=True, charts=True)
-    assert sorted(w.kind for w in r.warnings) == ["charts", "cut_apart"]
+    assert sorted(w.kind for w in r.warnings) == [WarningKind.CHARTS, WarningKind.CUT_APART]
     notes = {w.kind: w for w in r.warnings}
-    assert notes["charts"].text.startswith("1 island was cut into") and "(1 not a disk;" in notes["charts"].text
-    assert notes["cut_apart"].count == 1 and r.face_island[len(Fs)] == notes["cut_apart"].first[0]
+    charts, cut = notes[WarningKind.CHARTS], notes[WarningKind.CUT_APART]
+    assert charts.text.startswith("1 island was cut into") and "(1 not a disk;" in charts.text
+    assert cut.count == 1 and r.face_island[len(Fs)] == cut.first[0]
     assert not (r.islands.crossings > 0).any()
 
 
@@ -201,6 +204,6 @@ def test_without_refinement_the_stretch_warning_points_to_the_refinement_not_to_
     # charts are cut until they meet the budget as laid out; unrefined, Suzanne's cannot
     V, F = ex.suzanne_closed()
     r = parametrize(V, F, refine=0, unfold=True, charts=True)
-    over = next(w for w in r.warnings if w.kind == "over_budget")
+    over = next(w for w in r.warnings if w.kind is WarningKind.OVER_BUDGET)
     assert "beyond 1.18" in over.text and "not refined: refinement lowers it" in over.text
     assert "mark seams" not in over.text

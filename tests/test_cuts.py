@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import InvalidMeshError, cuts, metrics, parametrize, resolve
+from isoparam_addon.solver import ErrorKind, InvalidMeshError, cuts, metrics, parametrize, resolve
 from isoparam_addon.solver.cuts import area_distortion, next_paths
 from isoparam_addon.solver.mesh import unique_edges
 from isoparam_eval import meshes as ex
@@ -217,10 +217,12 @@ def test_extra_cuts_start_from_the_whole_meshs_cut_and_check_pins_on_it():
     V, F = np.vstack([Vp, Vb + [5.0, 0.0, 0.0]]), np.vstack([Fp, Fb + len(Vp)])
     corners, uv = np.zeros((len(F), 3), dtype=bool), np.zeros((len(F), 3, 2))
     corners[-5, 0], uv[-5, 0] = True, np.nan
-    with pytest.raises(InvalidMeshError, match=f"face {len(F) - 5}"):
+    with pytest.raises(InvalidMeshError, match=f"face {len(F) - 5}") as info:
         parametrize(V, F, pins=(corners, uv), extra_cuts=3)
-    with pytest.raises(InvalidMeshError):
+    assert info.value.kind is ErrorKind.NON_FINITE_PIN and info.value.indices.tolist() == [len(F) - 5]
+    with pytest.raises(InvalidMeshError) as info:
         parametrize(V, F, pins=(corners[:-1], uv[:-1]), extra_cuts=3)
+    assert info.value.kind is ErrorKind.SHAPE
 
 
 def two_boxes_and_a_disk():

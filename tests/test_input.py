@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import InvalidMeshError, IsoparamError, metrics, parametrize
+from isoparam_addon.solver import ErrorKind, InvalidMeshError, IsoparamError, WarningKind, metrics, parametrize
 from isoparam_eval import meshes as ex
 
 
@@ -21,7 +21,7 @@ def raises(kind, V, F, match, **kw):
     V0, F0 = (np.array(x, copy=True) if isinstance(x, np.ndarray) else None for x in (V, F))
     with pytest.raises(InvalidMeshError, match=match) as info:
         parametrize(V, F, **kw)
-    assert info.value.kind == kind
+    assert info.value.kind is kind
     assert isinstance(info.value, IsoparamError) and isinstance(info.value, ValueError)
     if isinstance(V, np.ndarray):
         np.testing.assert_array_equal(V, V0)  # nothing modified in place, NaNs included
@@ -31,37 +31,37 @@ def raises(kind, V, F, match, **kw):
 
 
 def test_empty_mesh():
-    raises("empty", np.zeros((0, 3)), np.zeros((0, 3), dtype=int), "empty mesh: 0 vertices and 0 faces")
+    raises(ErrorKind.EMPTY, np.zeros((0, 3)), np.zeros((0, 3), dtype=int), "empty mesh: 0 vertices and 0 faces")
     V, _ = square()
-    raises("empty", V, np.zeros((0, 3), dtype=int), "0 faces")
+    raises(ErrorKind.EMPTY, V, np.zeros((0, 3), dtype=int), "0 faces")
 
 
 def test_wrong_shapes_and_dtypes():
     V, F = square()
-    raises("shape", V[:, :2], F, r"vertices must have shape \(n, 3\)")
-    raises("shape", V, F[:, :2], r"faces must have shape \(m, 3\)")
-    raises("shape", V, F + 0.5, "integer indices")
+    raises(ErrorKind.SHAPE, V[:, :2], F, r"vertices must have shape \(n, 3\)")
+    raises(ErrorKind.SHAPE, V, F[:, :2], r"faces must have shape \(m, 3\)")
+    raises(ErrorKind.SHAPE, V, F + 0.5, "integer indices")
 
 
 def test_ragged_and_non_numeric_input():
     V, F = square()
-    raises("shape", [[0, 0, 0], [1, 0], [1, 1, 0], [0, 1, 0]], F, "vertices must be an array of numbers")
-    raises("shape", V, [[0, 1, 2], [0, 2]], "faces must be an array of numbers")
-    raises("shape", [["a", "b", "c"]] * 4, F, "vertices must be an array of numbers")
-    raises("shape", V + 5j, F, "vertices must be an array of numbers: complex")  # not dropped to real
+    raises(ErrorKind.SHAPE, [[0, 0, 0], [1, 0], [1, 1, 0], [0, 1, 0]], F, "vertices must be an array of numbers")
+    raises(ErrorKind.SHAPE, V, [[0, 1, 2], [0, 2]], "faces must be an array of numbers")
+    raises(ErrorKind.SHAPE, [["a", "b", "c"]] * 4, F, "vertices must be an array of numbers")
+    raises(ErrorKind.SHAPE, V + 5j, F, "vertices must be an array of numbers: complex")  # not dropped to real
 
 
 def test_bad_pins():
     V, F = square()
     mask, uv = np.zeros((2, 3), dtype=bool), np.zeros((2, 3, 2))
-    raises("shape", V, F, r"pins must be \(\(m, 3\) bool", pins=(mask[:1], uv))
-    raises("shape", V, F, r"pins must be .*with m = 2", pins=(mask, [[[0, 0]] * 3, [[0, 0]] * 2]))
-    raises("shape", V, F, r"pins must be", pins=mask)
+    raises(ErrorKind.SHAPE, V, F, r"pins must be \(\(m, 3\) bool", pins=(mask[:1], uv))
+    raises(ErrorKind.SHAPE, V, F, r"pins must be .*with m = 2", pins=(mask, [[[0, 0]] * 3, [[0, 0]] * 2]))
+    raises(ErrorKind.SHAPE, V, F, r"pins must be", pins=mask)
     mask[1, 2] = mask[0, 1] = True
     uv[1, 2] = np.nan
     uv[0, 0] = np.inf  # not pinned: ignored
     message = r"1 face has pinned corners with non-finite UVs \(first: face 1\)"
-    err = raises("non_finite_pin", V, F, message, pins=(mask, uv))
+    err = raises(ErrorKind.NON_FINITE_PIN, V, F, message, pins=(mask, uv))
     assert err.indices.tolist() == [1]
 
 
@@ -69,30 +69,30 @@ def test_non_finite_coordinates_name_count_and_first():
     V, F = square()
     V[2, 1] = np.nan
     V[3, 0] = np.inf
-    err = raises("non_finite", V, F, r"2 vertices have non-finite coordinates \(first: vertex 2\)")
+    err = raises(ErrorKind.NON_FINITE, V, F, r"2 vertices have non-finite coordinates \(first: vertex 2\)")
     assert err.indices.tolist() == [2, 3] and err.element == "vertex"
 
 
 def test_index_out_of_range():
     V, F = square()
     F[1, 2] = 7
-    err = raises("index_range", V, F, r"1 face indexes a vertex outside 0..3 \(first: face 1\)")
+    err = raises(ErrorKind.INDEX_RANGE, V, F, r"1 face indexes a vertex outside 0..3 \(first: face 1\)")
     assert err.indices.tolist() == [1]
     F[1, 2] = -1
-    raises("index_range", V, F, "first: face 1")
+    raises(ErrorKind.INDEX_RANGE, V, F, "first: face 1")
 
 
 def test_repeated_vertex_in_a_face():
     V, F = square()
     F[0] = [0, 1, 1]
-    raises("repeated_vertex", V, F, r"1 face uses the same vertex twice \(first: face 0\)")
+    raises(ErrorKind.REPEATED_VERTEX, V, F, r"1 face uses the same vertex twice \(first: face 0\)")
 
 
 def test_duplicate_face():
     V, F = square()
     F = np.vstack([F, [2, 0, 1]])
     raises(
-        "duplicate_face",
+        ErrorKind.DUPLICATE_FACE,
         V,
         F,
         r"1 face repeats the vertices of an earlier face \(first: face 2\)",
@@ -104,7 +104,7 @@ def test_edge_shared_by_three_faces():
     V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]], dtype=float)
     F = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
     err = raises(
-        "non_manifold_edge",
+        ErrorKind.NON_MANIFOLD_EDGE,
         V,
         F,
         r"1 edge is shared by more than two faces \(first: edge \(0, 1\)\)",
@@ -117,7 +117,7 @@ def test_bow_tie_vertex():
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]], dtype=float)
     F = np.array([[0, 1, 2], [0, 3, 4]])
     err = raises(
-        "non_manifold_vertex",
+        ErrorKind.NON_MANIFOLD_VERTEX,
         V,
         F,
         r"1 vertex joins faces that share no edge .*\(first: vertex 0\)",
@@ -133,9 +133,13 @@ def test_what_is_not_a_manifold_is_split_as_blender_does_and_warned():
     F = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4], [3, 5, 6], [2, 0, 1]])
     r = parametrize(V, F)
     kinds = {w.kind: w for w in r.warnings}
-    assert kinds["duplicate_faces"].text.startswith("1 face repeats the vertices of an earlier face (first: face 4)")
-    assert kinds["non_manifold_edges"].text.startswith("1 edge is shared by more than two faces (first: edge (0, 1))")
-    assert kinds["bowties"].count == 1 and kinds["bowties"].first == (3,)
+    assert kinds[WarningKind.DUPLICATE_FACES].text.startswith(
+        "1 face repeats the vertices of an earlier face (first: face 4)"
+    )
+    assert kinds[WarningKind.NON_MANIFOLD_EDGES].text.startswith(
+        "1 edge is shared by more than two faces (first: edge (0, 1))"
+    )
+    assert kinds[WarningKind.BOWTIES].count == 1 and kinds[WarningKind.BOWTIES].first == (3,)
     # each face on its own: the three around the edge, the repeated one, the bow-tie's wing
     assert r.n_islands == 5 and np.isfinite(r.corner_uv).all() and not r.flipped.any()
     l3, l2 = metrics.edge_lengths(V, F, r.corner_uv)
@@ -144,10 +148,10 @@ def test_what_is_not_a_manifold_is_split_as_blender_does_and_warned():
 
 def test_bad_seams():
     V, F = square()
-    raises("seam", V, F, "seams must be an", seams=np.array([0.5, 1.5]))
-    raises("seam", V, F, r"1 seam indexes a vertex outside", seams=np.array([[0, 9]]))
-    raises("seam", V, F, "inner_edges must be an", inner_edges=np.array([0.5, 1.5]))
-    raises("seam", V, F, r"1 inner_edge indexes a vertex outside", inner_edges=np.array([[0, 9]]))
+    raises(ErrorKind.SEAM, V, F, "seams must be an", seams=np.array([0.5, 1.5]))
+    raises(ErrorKind.SEAM, V, F, r"1 seam indexes a vertex outside", seams=np.array([[0, 9]]))
+    raises(ErrorKind.SEAM, V, F, "inner_edges must be an", inner_edges=np.array([0.5, 1.5]))
+    raises(ErrorKind.SEAM, V, F, r"1 inner_edge indexes a vertex outside", inner_edges=np.array([[0, 9]]))
 
 
 def test_seam_pairs_that_are_not_edges_are_ignored():

@@ -4,7 +4,7 @@ a shortest separating cut (solver/untangle.py)."""
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import metrics, parametrize
+from isoparam_addon.solver import WarningKind, metrics, parametrize
 from isoparam_addon.solver.overlap import crossings, overlapping_faces, shared_area
 from isoparam_eval import meshes as ex
 
@@ -66,7 +66,7 @@ def test_an_island_that_overlaps_itself_is_found_and_cut_apart():
     V, F = ex.helical_ribbon()
     plain = parametrize(V, F, refine=1000)
     assert plain.islands.crossings[0] > 0 and plain.overlaps().area[0] > 0
-    assert [w.kind for w in plain.warnings] == ["overlapping"]
+    assert [w.kind for w in plain.warnings] == [WarningKind.OVERLAPPING]
     # the metric on any layout agrees with the solver's report
     measured = metrics.self_overlaps(V, F, plain.corner_uv)
     assert measured.islands == 1 and measured.area.sum() == pytest.approx(plain.overlaps().area.sum())
@@ -75,10 +75,10 @@ def test_an_island_that_overlaps_itself_is_found_and_cut_apart():
     assert cut.n_islands > 1 and cut.stats.overlap_cuts > 0
     assert not (cut.islands.crossings > 0).any() and not cut.flipped.any()
     assert metrics.self_overlaps(V, F, cut.corner_uv).islands == 0
-    assert [w.kind for w in cut.warnings] == ["cut_apart"]  # said, as news
+    assert [w.kind for w in cut.warnings] == [WarningKind.CUT_APART]  # said, as news
     # with charts too: a disk cut apart is no chart
     charted = parametrize(V, F, refine=1000, split_overlaps=True, charts=True)
-    assert charted.n_islands > 1 and [w.kind for w in charted.warnings] == ["cut_apart"]
+    assert charted.n_islands > 1 and [w.kind for w in charted.warnings] == [WarningKind.CUT_APART]
     assert charted.stats.charts == 0
     before = metrics.per_island(V, F, plain.corner_uv, plain.face_island).mean_symmetric_dirichlet
     after = metrics.per_island(V, F, cut.corner_uv, cut.face_island).mean_symmetric_dirichlet

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from isoparam_addon.solver import metrics, parametrize
+from isoparam_addon.solver import WarningKind, metrics, parametrize
 from isoparam_addon.solver.islands import Islands
 from isoparam_addon.solver.mesh import HalfEdges
 from isoparam_addon.solver.per_face import max_step
@@ -428,7 +428,7 @@ def test_corners_of_one_vertex_pinned_to_different_uvs_are_held_at_their_mean_an
     expected = [0.5 + 0.2 / mask.sum(), 0.5]
     assert np.abs(r.corner_uv[mask] - expected).max() < 1e-12
     [w] = [w for w in r.warnings if "1 pinned vertex has corners pinned to different UVs" in w.text]
-    assert w.kind == "pin_conflict" and r.stats.pin_conflicts == 1  # the operator words it its own way
+    assert w.kind is WarningKind.PIN_CONFLICT and r.stats.pin_conflicts == 1  # the operator words it its own way
     agreed = parametrize(V, F, pins=(mask, np.where(mask[:, :, None], [0.5, 0.5], 0.0)))
     assert not any("different UVs" in w.text for w in agreed.warnings) and agreed.stats.pin_conflicts == 0
 

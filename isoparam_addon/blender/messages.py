@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..solver import InvalidMeshError
+from ..solver import ErrorKind, InvalidMeshError
 from ..solver.errors import counted, offenders
 from ..solver.report import FOUR_STEP_KINDS, WarningKind, solver_names
 from . import mesh_io
@@ -22,13 +22,13 @@ __all__ = [
 
 
 _HINTS = {
-    "non_finite": "Some vertices have invalid (NaN or infinite) coordinates",
-    "non_finite_pin": "Clear the pins (UV > Unpin) of that face, or give them valid UVs",
-    "non_manifold_edge": "Select > Select All by Trait > Non Manifold shows them",
-    "non_manifold_vertex": "Select > Select All by Trait > Non Manifold shows them; "
+    ErrorKind.NON_FINITE: "Some vertices have invalid (NaN or infinite) coordinates",
+    ErrorKind.NON_FINITE_PIN: "Clear the pins (UV > Unpin) of that face, or give them valid UVs",
+    ErrorKind.NON_MANIFOLD_EDGE: "Select > Select All by Trait > Non Manifold shows them",
+    ErrorKind.NON_MANIFOLD_VERTEX: "Select > Select All by Trait > Non Manifold shows them; "
     "Mesh > Split > Faces by Edges, or a seam through them, separates the fans",
-    "duplicate_face": "Mesh > Clean Up > Merge by Distance, then Delete Loose, removes them",
-    "repeated_vertex": "Mesh > Clean Up > Degenerate Dissolve removes them",
+    ErrorKind.DUPLICATE_FACE: "Mesh > Clean Up > Merge by Distance, then Delete Loose, removes them",
+    ErrorKind.REPEATED_VERTEX: "Mesh > Clean Up > Degenerate Dissolve removes them",
 }
 
 
@@ -66,7 +66,7 @@ def overlap_words(err: InvalidMeshError, sel: mesh_io.Selection) -> tuple[str, s
         _, at = np.unique(poly, return_index=True)
         text = str(offenders(err.kind, err.what, "face", poly[np.sort(at)]))
     hint = _HINTS.get(err.kind, "")
-    if err.kind == "duplicate_face" and err.count:
+    if err.kind == ErrorKind.DUPLICATE_FACE and err.count:
         pair = _overlapping_faces(sel, int(err.indices[0]))
         if pair is not None:  # two faces, not a face given twice: Merge by Distance does not help
             a, b = pair
@@ -76,7 +76,7 @@ def overlap_words(err: InvalidMeshError, sel: mesh_io.Selection) -> tuple[str, s
                 "share three vertices, so one lies across the other)"
             )
             hint = "Delete or dissolve one of the two faces, or move a vertex off the other's diagonal"
-    if err.kind == "non_manifold_edge" and err.edges is not None and len(err.edges):
+    if err.kind == ErrorKind.NON_MANIFOLD_EDGE and err.edges is not None and len(err.edges):
         overlap = _faces_across(sel, err.edges[0])
         if overlap is not None:  # not an edge of the mesh: Select Non Manifold would show nothing
             a, b, both = overlap
@@ -133,10 +133,10 @@ def _overlapping_faces(sel: mesh_io.Selection, t: int) -> tuple[int, int] | None
 _NOTES = frozenset({WarningKind.CHARTS, WarningKind.CUT_APART})  # news, not trouble: reported as INFO
 
 
-OVERLAP_ERRORS = ("duplicate_face", "non_manifold_edge")  # what overlapping triangles raise
+OVERLAP_ERRORS = frozenset({ErrorKind.DUPLICATE_FACE, ErrorKind.NON_MANIFOLD_EDGE})  # what overlapping triangles raise
 
 
-NOT_MANIFOLD_ERRORS = (*OVERLAP_ERRORS, "non_manifold_vertex")  # what the solver splits when not strict
+NOT_MANIFOLD_ERRORS = OVERLAP_ERRORS | {ErrorKind.NON_MANIFOLD_VERTEX}  # what the solver splits when not strict
 
 
 # how the solver says it split them

@@ -26,7 +26,7 @@ from ._memory import retained
 from ._parallel import one_blas_thread
 from .charts import with_charts
 from .cuts import with_extra_cuts
-from .errors import InvalidMeshError, IsoparamError, SolverError
+from .errors import ErrorKind, InvalidMeshError, IsoparamError, SolverError
 from .options import Options, Problem
 from .pipeline import solve
 from .progress import Cancelled, ProgressCallback, stage, tracking
@@ -45,6 +45,7 @@ __all__ = [
     "Timings",
     "IsoparamError",
     "InvalidMeshError",
+    "ErrorKind",
     "SolverError",
     "Cancelled",
     "metrics",

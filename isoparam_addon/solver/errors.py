@@ -2,15 +2,34 @@
 
 Every input problem raises :class:`InvalidMeshError` (a ``ValueError``) whose message
 names how many elements are affected and the first offender, and whose attributes
-carry the same facts for programs (the Blender operator turns them into a report that
-tells the artist how to find the elements).
+carry the same facts for programs, its :class:`ErrorKind` first (the Blender operator
+turns them into a report that tells the artist how to find the elements).
 """
 
 from __future__ import annotations
 
+from enum import StrEnum
+
 import numpy as np
 
-__all__ = ["IsoparamError", "InvalidMeshError", "SolverError"]
+__all__ = ["ErrorKind", "IsoparamError", "InvalidMeshError", "SolverError"]
+
+
+class ErrorKind(StrEnum):
+    """What is wrong with the input of an :class:`InvalidMeshError`; what its ``element``
+    and ``indices`` name, if anything. A string enum: it compares equal to its value."""
+
+    EMPTY = "empty"  # no vertices or no faces (no indices)
+    SHAPE = "shape"  # vertices, faces or pins of the wrong shape or dtype, ragged or not numbers (no indices)
+    NON_FINITE = "non_finite"  # vertices with NaN or infinite coordinates (vertices)
+    NON_FINITE_PIN = "non_finite_pin"  # faces with a pinned corner whose UV is NaN or infinite (faces)
+    INDEX_RANGE = "index_range"  # faces indexing a vertex that does not exist (faces)
+    REPEATED_VERTEX = "repeated_vertex"  # faces using one vertex twice (faces)
+    SEAM = "seam"  # seams or inner edges not a (k, 2) int array, or naming a missing vertex (seams, inner edges)
+    # what is not a manifold: raised only with ``split_nonmanifold=False`` (else split, and warned)
+    DUPLICATE_FACE = "duplicate_face"  # faces repeating an earlier face's vertices (faces)
+    NON_MANIFOLD_EDGE = "non_manifold_edge"  # edges shared by more than two faces (edges)
+    NON_MANIFOLD_VERTEX = "non_manifold_vertex"  # bow-ties: vertices whose faces form several fans (vertices)
 
 
 class IsoparamError(Exception):
@@ -22,12 +41,11 @@ class InvalidMeshError(IsoparamError, ValueError):
 
     Attributes
     ----------
-    kind : str
-        One of ``"empty"``, ``"shape"``, ``"non_finite"``, ``"non_finite_pin"``,
-        ``"index_range"``, ``"repeated_vertex"``, ``"duplicate_face"``,
-        ``"non_manifold_edge"``, ``"non_manifold_vertex"``, ``"seam"``.
+    kind : ErrorKind
+        What is wrong (the table in :class:`ErrorKind`).
     element : str
-        ``"vertex"``, ``"face"`` or ``"edge"``: what ``indices`` index.
+        ``"vertex"``, ``"face"`` or ``"edge"`` (or ``"seam"``, ``"inner_edge"``): what
+        ``indices`` index.
     indices : (k,) int
         Every offending element (vertex or face index into the caller's arrays;
         for edges, rows of ``edges``).
@@ -35,9 +53,9 @@ class InvalidMeshError(IsoparamError, ValueError):
         For edge problems, the vertex pairs of the offending edges.
     """
 
-    def __init__(self, kind: str, message: str, element: str = "", indices=None, edges=None):
+    def __init__(self, kind: ErrorKind, message: str, element: str = "", indices=None, edges=None):
         super().__init__(message)
-        self.kind = kind
+        self.kind = ErrorKind(kind)  # a member, also when given its value
         self.element = element
         self.indices = np.asarray([] if indices is None else indices, dtype=np.int64)
         self.edges = None if edges is None else np.asarray(edges, dtype=np.int64)
@@ -61,11 +79,11 @@ class SolverError(IsoparamError, RuntimeError):
     """A valid mesh on which the numerical method failed (reported, never NaN)."""
 
 
-def offenders(kind: str, what: str, element: str, indices, edges=None) -> InvalidMeshError:
+def offenders(kind: ErrorKind, what: str, element: str, indices, edges=None) -> InvalidMeshError:
     """Build an :class:`InvalidMeshError` whose message quotes the count and first index.
 
     ``what`` completes the sentence "<count> <element>s <what>", its verb in the plural,
-    e.g. ``offenders("non_finite", "have non-finite coordinates", "vertex", idx)``; for
+    e.g. ``offenders(ErrorKind.NON_FINITE, "have non-finite coordinates", "vertex", idx)``; for
     one offender both agree ("1 vertex has non-finite coordinates").
     """
     indices = np.asarray(indices, dtype=np.int64).ravel()

@@ -25,7 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .errors import InvalidMeshError, offenders
+from .errors import ErrorKind, InvalidMeshError, offenders
 from .geometry import TINY, next_corner, rotate_faces
 
 __all__ = [
@@ -76,7 +76,7 @@ def _array(x, name: str, dtype) -> np.ndarray:
             raise TypeError(f"complex values ({raw.dtype})")
         return raw if dtype is None else np.array(raw, dtype=dtype, copy=True)
     except (TypeError, ValueError) as e:  # ragged lists, strings, objects, complex numbers
-        raise InvalidMeshError("shape", f"{name} must be an array of numbers: {e}") from None
+        raise InvalidMeshError(ErrorKind.SHAPE, f"{name} must be an array of numbers: {e}") from None
 
 
 class Defects(NamedTuple):
@@ -141,13 +141,15 @@ def check(vertices, faces, split_nonmanifold: bool = True):
         dup = np.setdiff1d(np.arange(len(F)), first)
     dup = np.sort(dup)
     if dup.size and not split_nonmanifold:
-        raise offenders("duplicate_face", "repeat the vertices of an earlier face", "face", dup)
+        raise offenders(ErrorKind.DUPLICATE_FACE, "repeat the vertices of an earlier face", "face", dup)
     excluded = np.zeros(len(F), dtype=bool)
     excluded[dup] = True
     edges = HalfEdges(F, n, excluded=excluded if dup.size else None)
     if edges.overfull.size and not split_nonmanifold:
         pairs = edges.edge_vertices[edges.overfull]
-        raise offenders("non_manifold_edge", "are shared by more than two faces", "edge", edges.overfull, edges=pairs)
+        raise offenders(
+            ErrorKind.NON_MANIFOLD_EDGE, "are shared by more than two faces", "edge", edges.overfull, edges=pairs
+        )
     if edges.consistent(F) and not edges.overfull.size and not dup.size:
         fan = fans(F, edges.twin, n)  # walking the fans finds bow-ties, and the fans are reused
         bad = fan.broken
@@ -163,7 +165,9 @@ def check(vertices, faces, split_nonmanifold: bool = True):
         split[F[dup].ravel()] = True
         bad = bad[~split[bad]]
     if bad.size and not split_nonmanifold:
-        raise offenders("non_manifold_vertex", "join faces that share no edge around them (bow-tie)", "vertex", bad)
+        raise offenders(
+            ErrorKind.NON_MANIFOLD_VERTEX, "join faces that share no edge around them (bow-tie)", "vertex", bad
+        )
     if bad.size:
         fan = None  # the fans of a bow-tie vertex are split into separate vertices later
     return V, F, edges, fan, Defects(dup, edges.edge_vertices[edges.overfull], bad)
@@ -176,25 +180,25 @@ def _arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     V = _array(vertices, "vertices", np.float64)
     F_in = _array(faces, "faces", None)
     if V.ndim != 2 or V.shape[1] != 3:
-        raise InvalidMeshError("shape", f"vertices must have shape (n, 3), got {V.shape}")
+        raise InvalidMeshError(ErrorKind.SHAPE, f"vertices must have shape (n, 3), got {V.shape}")
     if F_in.ndim != 2 or F_in.shape[1] != 3:
-        raise InvalidMeshError("shape", f"faces must have shape (m, 3), got {F_in.shape}")
+        raise InvalidMeshError(ErrorKind.SHAPE, f"faces must have shape (m, 3), got {F_in.shape}")
     if len(V) == 0 or len(F_in) == 0:
-        raise InvalidMeshError("empty", f"empty mesh: {len(V)} vertices and {len(F_in)} faces")
+        raise InvalidMeshError(ErrorKind.EMPTY, f"empty mesh: {len(V)} vertices and {len(F_in)} faces")
     if F_in.dtype.kind not in "iu":
         if F_in.dtype.kind != "f" or not np.all(np.isfinite(F_in)) or np.any(F_in != np.round(F_in)):
-            raise InvalidMeshError("shape", f"faces must hold integer indices, got dtype {F_in.dtype}")
+            raise InvalidMeshError(ErrorKind.SHAPE, f"faces must hold integer indices, got dtype {F_in.dtype}")
     F = np.array(F_in, dtype=np.int64, copy=True)
     # whole-array checks first; the (slower) row-wise search only names the offenders
     if not np.isfinite(V).all():
         bad = np.flatnonzero(~np.isfinite(V).all(axis=1))
-        raise offenders("non_finite", "have non-finite coordinates", "vertex", bad)
+        raise offenders(ErrorKind.NON_FINITE, "have non-finite coordinates", "vertex", bad)
     if F.min() < 0 or F.max() >= len(V):
         bad = np.flatnonzero(((F < 0) | (F >= len(V))).any(axis=1))
-        raise offenders("index_range", f"index a vertex outside 0..{len(V) - 1}", "face", bad)
+        raise offenders(ErrorKind.INDEX_RANGE, f"index a vertex outside 0..{len(V) - 1}", "face", bad)
     bad = np.flatnonzero((F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 2] == F[:, 0]))
     if bad.size:
-        raise offenders("repeated_vertex", "use the same vertex twice", "face", bad)
+        raise offenders(ErrorKind.REPEATED_VERTEX, "use the same vertex twice", "face", bad)
     return V, F
 
 
@@ -344,11 +348,11 @@ def edge_mask(he: HalfEdges, n: int, seams, what: str = "seams") -> np.ndarray:
     if S.size == 0:
         return mask
     if S.ndim != 2 or S.shape[1] != 2 or S.dtype.kind not in "iu":
-        raise InvalidMeshError("seam", f"{what} must be an (k, 2) integer array, got {S.shape} {S.dtype}")
+        raise InvalidMeshError(ErrorKind.SEAM, f"{what} must be an (k, 2) integer array, got {S.shape} {S.dtype}")
     S = S.astype(np.int64)
     bad = np.flatnonzero(((S < 0) | (S >= n)).any(axis=1))
     if bad.size:
-        raise offenders("seam", f"index a vertex outside 0..{n - 1}", what.rstrip("s"), bad, edges=S[bad])
+        raise offenders(ErrorKind.SEAM, f"index a vertex outside 0..{n - 1}", what.rstrip("s"), bad, edges=S[bad])
     key = pair_keys(S[:, 0], S[:, 1], n)
     ekey = pair_keys(he.edge_vertices[:, 0], he.edge_vertices[:, 1], n, ordered=True)
     pos = np.searchsorted(ekey, key)

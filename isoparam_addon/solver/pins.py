@@ -18,7 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from .errors import InvalidMeshError, offenders
+from .errors import ErrorKind, InvalidMeshError, offenders
 from .geometry import signed_double_areas
 from .islands import Islands
 from .mesh import pair_keys
@@ -51,12 +51,12 @@ def pin_targets(topo, pins, n: int):
         mask = np.asarray(mask, dtype=bool)
         uv = np.asarray(uv, dtype=np.float64)
     except (TypeError, ValueError) as e:  # not a pair, ragged lists, non-numbers
-        raise InvalidMeshError("shape", f"{shapes}: {e}") from None
+        raise InvalidMeshError(ErrorKind.SHAPE, f"{shapes}: {e}") from None
     if mask.shape != (m, 3) or uv.shape != (m, 3, 2):
-        raise InvalidMeshError("shape", shapes)
+        raise InvalidMeshError(ErrorKind.SHAPE, shapes)
     bad = np.flatnonzero((mask & ~np.isfinite(uv).all(axis=2)).any(axis=1))
     if bad.size:
-        raise offenders("non_finite_pin", "have pinned corners with non-finite UVs", "face", bad)
+        raise offenders(ErrorKind.NON_FINITE_PIN, "have pinned corners with non-finite UVs", "face", bad)
     v = topo.corner_vertex[mask]
     count = np.bincount(v, minlength=n)
     target = np.zeros((n, 2))

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from isoparam_addon.blender import mesh_io, messages
-from isoparam_addon.solver import InvalidMeshError
+from isoparam_addon.solver import ErrorKind, InvalidMeshError
 from isoparam_eval import meshes as ex
 
 from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, set_uvs_and_pins, snapshot
@@ -247,7 +247,7 @@ def test_overlapping_faces_are_named_in_the_message():
         uv_name="UVMap",
     )
     err = InvalidMeshError(
-        "duplicate_face", "1 face repeats the vertices of an earlier face (first: face 3)", "face", [3]
+        ErrorKind.DUPLICATE_FACE, "1 face repeats the vertices of an earlier face (first: face 3)", "face", [3]
     )
     text = messages.describe(err, sel)
     assert "faces 0 and 1 share three vertices" in text and "Delete or dissolve one of the two faces" in text
