@@ -7,7 +7,7 @@ the whole range.
 
     python scripts/benchmark.py                     # peaks grids, 1k .. 1M
     python scripts/benchmark.py --sizes 1e3 1e5 --repeat 7 --mesh s_random
-    python scripts/benchmark.py --refine 100        # with the add-on's default refinement
+    python scripts/benchmark.py --refine 100        # with refinement (at most 100 iterations)
     python scripts/benchmark.py --mesh peaks_box --sizes 1e5 --extra-cuts 4   # a closed island beside
 """
 

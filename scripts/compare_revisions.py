@@ -3,9 +3,11 @@
 Each revision is checked out in a temporary git worktree; every run is a fresh process of
 this Python with that tree first on ``sys.path``, and the runs alternate (old, new, old,
 new, ...) so that the machine's drift touches both alike. The solver runs with the
-operator's options, no seams; the table gives per mesh and revision the median seconds,
-the charts (islands) and the symmetric Dirichlet energy per island at its best scale
-(area-weighted), and the ratio of the medians.
+operator's options, no seams (the defaults of the isoparam_addon this Python imports,
+given to both as keywords: an older revision may have no preset to read); the table
+gives per mesh and revision the median seconds, the charts (islands) and the symmetric
+Dirichlet energy per island at its best scale (area-weighted), and the ratio of the
+medians.
 
     python scripts/compare_revisions.py c975a22 HEAD --meshes spot fandisk homer --repeat 3
     python scripts/compare_revisions.py HEAD~1 --peaks 317    # peaks 317x317 (z/3) too
@@ -18,9 +20,13 @@ import json
 import subprocess
 import sys
 import tempfile
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+
+from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.solver.options import Options
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -37,16 +43,22 @@ elif name == "suzanne":
 else:
     V, F = ex.real_mesh(name)[:2] if name in ex.REAL else ex.load_obj(ex.SHARED / f"{name}.obj")[:2]
 t = time.perf_counter()
-r = parametrize(V, F, refine=1000, charts=True, unfold=True, extra_cuts=4, split_overlaps=True)
+r = parametrize(V, F, **json.loads(sys.argv[2]))
 t = time.perf_counter() - t
 sd = metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet
 print(json.dumps({"s": t, "islands": int(r.n_islands), "sd": float(sd)}))
 """
 
 
+def _operator_keywords() -> str:
+    """The solver options the operator's defaults set apart from the solver's, as JSON."""
+    ours, theirs = asdict(DEFAULTS.solver_options()), asdict(Options())
+    return json.dumps({name: value for name, value in ours.items() if value != theirs[name]})
+
+
 def _run(tree: Path, mesh: str) -> dict:
     done = subprocess.run(
-        [sys.executable, "-c", f"import sys; sys.path.insert(0, {str(tree)!r})\n" + _RUN, mesh],
+        [sys.executable, "-c", f"import sys; sys.path.insert(0, {str(tree)!r})\n" + _RUN, mesh, _operator_keywords()],
         cwd=tree,
         capture_output=True,
         text=True,

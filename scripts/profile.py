@@ -20,10 +20,11 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
+from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import parametrize
 from isoparam_eval.corpus import load_mesh
 
-OPERATOR = dict(refine=1000, charts=True, unfold=True, extra_cuts=4, split_overlaps=True, max_stretch=1.18)
+OPERATOR = DEFAULTS.solver_options()  # the solver's options as the operator's defaults ask for them
 
 
 class StageClock:
@@ -98,7 +99,7 @@ def main(argv=None) -> int:
     if args.operator:
         record = _through_operator(V, F, seams, clock)
     else:
-        result = parametrize(V, F, seams, progress=clock, **OPERATOR)
+        result = parametrize(V, F, seams, options=OPERATOR, progress=clock)
     total = time.perf_counter() - t0
     print(f"{args.mesh.name}: {len(V):,} vertices, {len(F):,} faces, seams {args.seams}: {total:.2f} s")
     if args.operator:

@@ -22,9 +22,11 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 
 import numpy as np
 
+from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_addon.solver.per_face import FaceFrames
 from isoparam_addon.solver.topology import build_topology
@@ -88,8 +90,10 @@ def load(name: str):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--meshes", nargs="+", default=[*ex.REAL, "suzanne"])
-    ap.add_argument("--refine", type=int, default=1000, help="the refinement's iteration cap (the operator's default)")
-    ap.add_argument("--extra-cuts", type=int, default=4, help="with --no-charts")
+    ap.add_argument(
+        "--refine", type=int, default=DEFAULTS.refine, help="the refinement's iteration cap (the operator's default)"
+    )
+    ap.add_argument("--extra-cuts", type=int, default=DEFAULTS.extra_cuts, help="with --no-charts")
     ap.add_argument("--no-charts", action="store_true", help="one island per part, opened by its shortest cut")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--slim-iterations", type=int, default=200)
@@ -103,8 +107,10 @@ def main(argv=None) -> int:
     print("|---" * (13 + args.noise) + "|")
     for name in args.meshes:
         V, F = load(name)
-        options = dict(refine=args.refine, extra_cuts=args.extra_cuts, charts=not args.no_charts, split_overlaps=True)
-        solve = lambda V=V, F=F, options=options: parametrize(V, F, **options)  # noqa: E731
+        options = replace(
+            DEFAULTS.solver_options(), refine=args.refine, extra_cuts=args.extra_cuts, charts=not args.no_charts
+        )
+        solve = lambda V=V, F=F, options=options: parametrize(V, F, options=options)  # noqa: E731
         times, r = [], None
         for _ in range(args.repeat):  # timed solves
             t0 = time.perf_counter()
@@ -126,7 +132,7 @@ def main(argv=None) -> int:
         )
         if args.noise:
             rng = np.random.default_rng(0)
-            noisy = parametrize(V * (1 + 1e-12 * rng.standard_normal(V.shape)), F, **options)
+            noisy = parametrize(V * (1 + 1e-12 * rng.standard_normal(V.shape)), F, options=options)
             e = metrics.per_island(noisy.vertices, noisy.faces, noisy.corner_uv, noisy.face_island)
             row += f" {abs(e.mean_symmetric_dirichlet / ours.mean_symmetric_dirichlet - 1):.1e} |"
         print(row, flush=True)

@@ -6,13 +6,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import WarningKind, metrics, parametrize
 from isoparam_addon.solver.charts import energy_budget
 from isoparam_addon.solver.report import OPENED_KINDS
 from isoparam_eval import meshes as ex
 
 SPOT = Path(__file__).resolve().parent / "data" / "spot.obj"
-CHARTS = dict(charts=True, refine=1000, split_overlaps=True)  # as the operator unwraps
+CHARTS = DEFAULTS.solver_options()  # as the operator unwraps
+BUDGET = CHARTS.max_stretch  # the operator's Max Stretch
 CUTS = OPENED_KINDS | {WarningKind.CUT_APART}  # every warning that says an island was cut
 
 
@@ -27,9 +29,9 @@ def test_a_closed_cow_becomes_few_charts_with_short_seams():
     # xatlas 0.0.11 (default options) on this spot: 39 charts, seams 7.0% of the edge
     # length, symmetric Dirichlet 4.03 (scripts/real_meshes.py --seams none)
     V, F, _ = ex.load_obj(SPOT)
-    r = parametrize(V, F, **CHARTS)
+    r = parametrize(V, F, options=CHARTS)
     per = metrics.per_island(V, F, r.corner_uv, r.face_island)
-    assert per.mean_symmetric_dirichlet <= energy_budget(1.18) < 4.25
+    assert per.mean_symmetric_dirichlet <= energy_budget(BUDGET) < 4.25
     assert 3 <= r.n_islands <= 39 // 3
     assert _seam_share(V, F, r.corner_uv) <= 0.07 / 2
     assert per.flipped.sum() == 0 and r.flipped.sum() == 0
@@ -42,7 +44,7 @@ def test_a_closed_cow_becomes_few_charts_with_short_seams():
 
 def test_suzanne_with_no_seams_is_charted_within_budget():
     V, F = ex.suzanne_closed()  # a head with holes and two closed eyes
-    r = parametrize(V, F, **CHARTS)
+    r = parametrize(V, F, options=CHARTS)
     per = metrics.per_island(V, F, r.corner_uv, r.face_island)
     assert per.mean_symmetric_dirichlet <= 4.25 and r.flipped.sum() == 0
     assert metrics.self_overlaps(V, F, r.corner_uv).islands == 0
@@ -51,7 +53,7 @@ def test_suzanne_with_no_seams_is_charted_within_budget():
 
 def test_a_lower_budget_costs_more_charts_and_stretches_less():
     V, F, _ = ex.load_obj(SPOT)
-    loose, tight = (parametrize(V, F, max_stretch=s, **CHARTS) for s in (1.3, 1.1))
+    loose, tight = (parametrize(V, F, options=CHARTS, max_stretch=s) for s in (1.3, 1.1))
     energy = [metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet for r in (loose, tight)]
     assert energy[1] < energy[0] <= energy_budget(1.3)
     assert tight.n_islands > loose.n_islands
@@ -62,7 +64,7 @@ def test_a_lower_budget_costs_more_charts_and_stretches_less():
 
 def test_an_artists_islands_stay_as_marked():
     V, F, seams = ex.load_obj(SPOT)  # 13 islands, some beyond the budget (up to 5.4)
-    r = parametrize(V, F, seams, **CHARTS)
+    r = parametrize(V, F, seams, options=CHARTS)
     assert r.n_islands == 13 and not [w for w in r.warnings if w.kind is WarningKind.CHARTS]
 
 
@@ -70,14 +72,14 @@ def test_a_nearly_closed_disk_is_charted():
     # a sphere with one small hole is a disk, but holds nearly a sphere's curvature
     V, F = ex.sphere(4)
     F = F[~(F == 0).any(axis=1)]  # the faces around one vertex removed: a hole
-    r = parametrize(V, F, **CHARTS)
+    r = parametrize(V, F, options=CHARTS)
     assert r.n_islands > 1 and r.flipped.sum() == 0
     assert "curved like a closed part" in next(w.text for w in r.warnings if w.kind is WarningKind.CHARTS)
 
 
 def test_a_developable_island_within_budget_stays_whole():
     V, F, _ = ex.s_surface(30, 8)
-    r = parametrize(V, F, **CHARTS)
+    r = parametrize(V, F, options=CHARTS)
     assert r.n_islands == 1 and len(r.cut_edges) == 0
     assert not [w for w in r.warnings if w.kind is WarningKind.CHARTS]
 
@@ -86,13 +88,13 @@ def test_a_developable_island_within_budget_stays_whole():
 def test_an_open_part_with_no_seams_is_charted_until_within_budget(height):
     # peaks at full height and more: its bumps and saddles cancel in curvature, not in stretch
     V, F = ex.peaks(61, z_scale=height)
-    whole = parametrize(V, F, **{**CHARTS, "charts": False})
+    whole = parametrize(V, F, options=CHARTS, charts=False, extra_cuts=0)
     assert metrics.per_island(V, F, whole.corner_uv, whole.face_island).mean_symmetric_dirichlet > 7.0
-    r = parametrize(V, F, **CHARTS)
+    r = parametrize(V, F, options=CHARTS)
     per = metrics.per_island(V, F, r.corner_uv, r.face_island)
-    assert per.mean_symmetric_dirichlet <= energy_budget(1.18)
+    assert per.mean_symmetric_dirichlet <= energy_budget(BUDGET)
     assert per.flipped.sum() == 0 and metrics.self_overlaps(V, F, r.corner_uv).islands == 0
-    assert "stretched beyond 1.18" in next(w.text for w in r.warnings if w.kind is WarningKind.CHARTS)
+    assert f"stretched beyond {BUDGET:.3g}" in next(w.text for w in r.warnings if w.kind is WarningKind.CHARTS)
     assert not [w for w in r.warnings if w.kind is WarningKind.OVER_BUDGET]
 
 
@@ -100,25 +102,25 @@ def test_islands_the_artists_seams_bound_are_charted_on_request_only():
     V, F = ex.peaks(41, z_scale=1.0)
     seam = np.flatnonzero(np.isclose(V[:, 0], 0.0))  # a seam across the middle: two islands
     seams = np.stack([seam[:-1], seam[1:]], axis=1)
-    kept = parametrize(V, F, seams, **CHARTS)
+    kept = parametrize(V, F, seams, options=CHARTS)
     assert kept.n_islands == 2 and not [w for w in kept.warnings if w.kind is WarningKind.CHARTS]
     over = [w for w in kept.warnings if w.kind is WarningKind.OVER_BUDGET]
     assert not over  # the artist's islands: their stretch is theirs to judge
-    r = parametrize(V, F, seams, chart_disks=True, **CHARTS)
+    r = parametrize(V, F, seams, options=CHARTS, chart_disks=True)
     assert r.n_islands > 2
-    assert metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet <= energy_budget(1.18)
+    assert metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet <= energy_budget(BUDGET)
 
 
 def test_a_squeezed_tip_is_slit_open_not_cut_off():
     # a cone's tip is squeezed in any layout without a cut: one slit to it opens it exactly
     V, F = ex.spherical_cap(20, max_polar=0.6)
     V[:, 2] = 2.0 * (1.0 - np.linalg.norm(V[:, :2], axis=1) / np.linalg.norm(V[:, :2], axis=1).max())
-    r = parametrize(V, F, **CHARTS)
+    r = parametrize(V, F, options=CHARTS)
     per = metrics.per_island(V, F, r.corner_uv, r.face_island)
     assert r.n_islands == 1 and len(r.cut_edges) > 0  # slit, one chart
-    assert per.mean_symmetric_dirichlet <= energy_budget(1.18) and per.flipped.sum() == 0
+    assert per.mean_symmetric_dirichlet <= energy_budget(BUDGET) and per.flipped.sum() == 0
     note = next(w.text for w in r.warnings if w.kind is WarningKind.CHARTS)
-    assert "1 island was slit open (1 stretched beyond 1.18" in note
+    assert f"1 island was slit open (1 stretched beyond {BUDGET:.3g}" in note
 
 
 def test_an_island_with_pins_is_not_charted():
@@ -126,14 +128,14 @@ def test_an_island_with_pins_is_not_charted():
     pinned = np.zeros(F.shape, dtype=bool)
     pinned[0, 0] = True
     uv = np.zeros(F.shape + (2,))
-    r = parametrize(V, F, inner_edges=diagonals, pins=(pinned, uv), **CHARTS)
+    r = parametrize(V, F, inner_edges=diagonals, pins=(pinned, uv), options=CHARTS)
     assert r.n_islands == 1  # cut open as far as it must be, no more
     assert [w.kind for w in r.warnings if w.kind in CUTS or w.kind is WarningKind.CHARTS] == [WarningKind.CUT_CLOSED]
 
 
 def test_charts_keep_off_polygon_diagonals():
     V, F, diagonals = ex.box(8)  # quads split along a diagonal: cells and cuts keep to quad edges
-    r = parametrize(V, F, inner_edges=diagonals, **CHARTS)
+    r = parametrize(V, F, inner_edges=diagonals, options=CHARTS)
     assert r.n_islands > 1
     cut = {tuple(e) for e in np.sort(r.cut_edges, axis=1).tolist()}
     assert not cut & {tuple(e) for e in np.sort(diagonals, axis=1).tolist()}
@@ -150,7 +152,7 @@ def test_charts_of_the_paper_method_alone():
 
 def test_a_torus_within_budget_is_only_opened_and_says_so():
     V, F = ex.torus()  # genus 1: opened by two loops, within the budget as one chart
-    r = parametrize(V, F, **CHARTS)
+    r = parametrize(V, F, options=CHARTS)
     assert r.n_islands == 1 and r.flipped.sum() == 0
     kinds = [w.kind for w in r.warnings]
     assert WarningKind.CUT_CLOSED in kinds and WarningKind.CUT_HANDLES in kinds and WarningKind.CHARTS not in kinds
@@ -161,7 +163,7 @@ def test_rounding_of_the_input_does_not_move_the_charts():
     # on quantities rounded to a grid: rounding of the input does not move them
     V, F, _ = ex.load_obj(SPOT)
     rng = np.random.default_rng(7)
-    runs = [parametrize(V * (1 + 1e-12 * rng.standard_normal(V.shape)), F, **CHARTS) for _ in range(8)]
+    runs = [parametrize(V * (1 + 1e-12 * rng.standard_normal(V.shape)), F, options=CHARTS) for _ in range(8)]
     energy = [metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet for r in runs]
     assert len({r.n_islands for r in runs}) == 1
     assert np.ptp(energy) < 1e-3 * energy[0]  # (the charts may still move a little: 4e-4 seen)
@@ -171,7 +173,7 @@ def test_a_closed_part_is_charted_in_one_solve_and_its_slits_do_not_fold_over():
     # decided, then refined once: spot's cells and slits are placed from the prediction,
     # the refinement keeps the slits' banks from crossing, and nothing is cut after
     V, F, _ = ex.load_obj(SPOT)
-    r = parametrize(V, F, **CHARTS)
+    r = parametrize(V, F, options=CHARTS)
     assert r.stats.chart_rounds == 0 and r.stats.overlap_cuts == 0
     assert len(r.cut_edges) > 0 and np.bincount(r.face_island).min() >= 64
     assert metrics.self_overlaps(V, F, r.corner_uv).islands == 0 and r.flipped.sum() == 0
@@ -181,7 +183,7 @@ def test_charts_cut_no_chips():
     # where a slit, a ball's cut and a cell's boundary meet, they can close round a few
     # faces: such chips join the chart beside them (Suzanne: pieces of 1-4 faces before)
     V, F = ex.suzanne_closed()
-    r = parametrize(V, F, **CHARTS)
+    r = parametrize(V, F, options=CHARTS)
     assert np.bincount(r.face_island).min() >= 8
     assert metrics.self_overlaps(V, F, r.corner_uv).islands == 0
 
@@ -191,8 +193,8 @@ def test_an_island_cut_apart_where_it_overlaps_is_not_counted_as_charted():
     # layout overlaps itself): the ribbon's pieces are no charts, and have a note of their own
     (Vs, Fs), (Vr, Fr) = ex.sphere(2), ex.helical_ribbon()
     V, F = np.vstack([Vs, Vr + [10.0, 0.0, 0.0]]), np.vstack([Fs, Fr + len(Vs)])
-    r = parametrize(V, F, refine=1000, split_overlaps=True, charts=True)
-    assert sorted(w.kind for w in r.warnings) == [WarningKind.CHARTS, WarningKind.CUT_APART]
+    r = parametrize(V, F, options=CHARTS)
+    assert sorted(w.kind for w in r.warnings) == ["charts", "cut_apart"]
     notes = {w.kind: w for w in r.warnings}
     charts, cut = notes[WarningKind.CHARTS], notes[WarningKind.CUT_APART]
     assert charts.text.startswith("1 island was cut into") and "(1 not a disk;" in charts.text
@@ -203,7 +205,7 @@ def test_an_island_cut_apart_where_it_overlaps_is_not_counted_as_charted():
 def test_without_refinement_the_stretch_warning_points_to_the_refinement_not_to_seams():
     # charts are cut until they meet the budget as laid out; unrefined, Suzanne's cannot
     V, F = ex.suzanne_closed()
-    r = parametrize(V, F, refine=0, unfold=True, charts=True)
+    r = parametrize(V, F, refine=0, unfold=True, charts=True, max_stretch=BUDGET)
     over = next(w for w in r.warnings if w.kind is WarningKind.OVER_BUDGET)
-    assert "beyond 1.18" in over.text and "not refined: refinement lowers it" in over.text
+    assert f"beyond {BUDGET:.3g}" in over.text and "not refined: refinement lowers it" in over.text
     assert "mark seams" not in over.text

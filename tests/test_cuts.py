@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import ErrorKind, InvalidMeshError, cuts, metrics, parametrize, resolve
 from isoparam_addon.solver.cuts import area_distortion, next_paths
 from isoparam_addon.solver.mesh import unique_edges
@@ -95,7 +96,7 @@ def test_a_try_solves_only_the_islands_being_cut(monkeypatch):
 def test_extra_cuts_leave_islands_that_needed_no_cut_alone():
     V, F = ex.peaks(21)
     a = parametrize(V, F, refine=20)
-    b = parametrize(V, F, refine=20, extra_cuts=4)
+    b = parametrize(V, F, refine=20, extra_cuts=DEFAULTS.extra_cuts)
     assert np.array_equal(a.corner_uv, b.corner_uv) and len(b.cut_edges) == 0
 
 
@@ -157,7 +158,7 @@ def test_a_lone_seam_edge_is_not_where_a_path_starts():
     from isoparam_addon.solver.topology import build_topology
 
     V, F, diagonals = ex.box(6)
-    r = parametrize(V, F, [[1, 2]], refine=100, inner_edges=diagonals, extra_cuts=4)
+    r = parametrize(V, F, [[1, 2]], refine=100, inner_edges=diagonals, extra_cuts=DEFAULTS.extra_cuts)
     assert r.stats.extra_cut_edges > 0
     assert build_topology(V, F, np.vstack([[[1, 2]], r.cut_edges]))[2].cut_islands.size == 0
     assert not any("several boundary loops" in w.text for w in r.warnings)

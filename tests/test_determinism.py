@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import parametrize
 from isoparam_addon.solver.islands import Islands
 from isoparam_addon.solver.placement import canonical_turn
@@ -25,12 +26,14 @@ from tests.conftest import procrustes_error  # (tests is a package)
 
 ROOT = Path(__file__).resolve().parent.parent
 SPOT = ROOT / "tests" / "data" / "spot.obj"
-DEFAULTS = dict(refine=100, extra_cuts=4)  # the operator's defaults
+# the operator's extra cuts, with a shorter refinement than its own (quicker)
+REFINED = dict(refine=100, extra_cuts=DEFAULTS.extra_cuts)
 
 # each case: a mesh the solver takes a different path on (see the comments)
 _SOLVE = r"""
 import sys
 import numpy as np
+from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_eval import meshes as ex
 
@@ -53,12 +56,13 @@ V, F = ex.s_surface_random(300, 5)[:2]
 shifts = np.array([[0.0, 0.0, 0.0], [3.1, 0.7, 0.0], [-2.9, 5.3, 1.0], [7.7, -3.3, 2.0]])
 cases["copies"] = (np.vstack([V + s for s in shifts]), np.vstack([F + k * len(V) for k in range(4)]), None, None)
 out = {}
+OPERATOR = dict(options=DEFAULTS.solver_options())
 cases["spot_charts"] = (spot[0], spot[1], None, None)  # cut into charts: cells, then splits by stretch
 for name, (V, F, seams, inner) in cases.items():
     for refine in (0, 100):
         # (charts as the operator cuts them: at Refinement 0 from a layout that does not fold,
         # whose energies, not those of folded faces, decide the cuts)
-        charts = dict(charts=True, split_overlaps=True, unfold=True) if name.endswith("charts") else dict(extra_cuts=4)
+        charts = OPERATOR if name.endswith("charts") else dict(extra_cuts=DEFAULTS.extra_cuts)
         r = parametrize(V, F, seams, inner_edges=inner, refine=refine, **charts)
         out[f"{name}_{refine}"] = r.corner_uv
         energy = metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet
@@ -119,9 +123,9 @@ def _relabelled(V, F, seams, rng):
 
 def _renumbered_result(V, F, seams, rng):
     """The result for the mesh, and for it numbered anew with the UVs put back in order."""
-    a = parametrize(V, F, seams, **DEFAULTS)
+    a = parametrize(V, F, seams, **REFINED)
     V2, F2, seams2, order = _relabelled(V, F, seams, rng)
-    b = parametrize(V2, F2, seams2, **DEFAULTS)
+    b = parametrize(V2, F2, seams2, **REFINED)
     back = np.empty_like(b.corner_uv)
     back[order] = b.corner_uv
     return a, back
@@ -160,5 +164,5 @@ def test_a_round_island_relabelled_is_the_same_up_to_a_turn(rng):
     # is the same layout turned
     V, F = ex.spherical_cap(30)
     a, back = _renumbered_result(V, F, None, rng)
-    assert _relative(a.corner_uv, parametrize(V, F, **DEFAULTS).corner_uv) == 0.0
+    assert _relative(a.corner_uv, parametrize(V, F, **REFINED).corner_uv) == 0.0
     assert procrustes_error(a.corner_uv.reshape(-1, 2), back.reshape(-1, 2)) < 1e-9

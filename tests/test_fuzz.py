@@ -12,11 +12,12 @@ draws its own mix, the same on every run.
 import numpy as np
 import pytest
 
+from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_eval import meshes as ex
 from isoparam_eval import variants as va
 
-OPERATOR = dict(refine=1000, unfold=True, charts=True, split_overlaps=True, extra_cuts=4)
+OPERATOR = DEFAULTS.solver_options()
 
 
 def variant(seed: int):
@@ -59,7 +60,7 @@ def variant(seed: int):
 @pytest.mark.parametrize("seed", range(24))
 def test_a_variant_is_unwrapped_without_folds_or_overlaps(seed):
     V, F, inner = variant(seed)
-    r = parametrize(V, F, inner_edges=inner, **OPERATOR)
+    r = parametrize(V, F, inner_edges=inner, options=OPERATOR)
     assert np.isfinite(r.corner_uv).all()
     label = metrics.uv_islands(F, r.corner_uv)
     assert metrics.flipped(V, F, r.corner_uv, label) == 0

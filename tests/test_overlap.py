@@ -4,6 +4,7 @@ a shortest separating cut (solver/untangle.py)."""
 import numpy as np
 import pytest
 
+from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import WarningKind, metrics, parametrize
 from isoparam_addon.solver.overlap import crossings, overlapping_faces, shared_area
 from isoparam_eval import meshes as ex
@@ -54,7 +55,7 @@ def test_an_island_whose_boundary_would_fold_over_itself_is_kept_from_it():
     # refinement keeps its boundary from crossing itself (solver/contact.py), so it stays
     # one island, a little stretched, where without contact it overlapped and was cut in two
     V, F = ex.saddle_c()
-    r = parametrize(V, F, refine=1000, split_overlaps=True)
+    r = parametrize(V, F, refine=DEFAULTS.refine, split_overlaps=True)
     assert r.n_islands == 1 and not (r.islands.crossings > 0).any() and not r.flipped.any()
     assert metrics.self_overlaps(V, F, r.corner_uv).islands == 0 and not r.warnings
     assert metrics.per_island(V, F, r.corner_uv, r.face_island).mean_symmetric_dirichlet < 4.1
@@ -64,20 +65,20 @@ def test_an_island_that_overlaps_itself_is_found_and_cut_apart():
     # a ribbon winding more than a turn: its isometric layout (it is developable) overlaps
     # itself from the start; no refinement can undo that, a cut can
     V, F = ex.helical_ribbon()
-    plain = parametrize(V, F, refine=1000)
+    plain = parametrize(V, F, refine=DEFAULTS.refine)
     assert plain.islands.crossings[0] > 0 and plain.overlaps().area[0] > 0
     assert [w.kind for w in plain.warnings] == [WarningKind.OVERLAPPING]
     # the metric on any layout agrees with the solver's report
     measured = metrics.self_overlaps(V, F, plain.corner_uv)
     assert measured.islands == 1 and measured.area.sum() == pytest.approx(plain.overlaps().area.sum())
     assert measured.crossings.sum() == plain.islands.crossings.sum()
-    cut = parametrize(V, F, refine=1000, split_overlaps=True)
+    cut = parametrize(V, F, refine=DEFAULTS.refine, split_overlaps=True)
     assert cut.n_islands > 1 and cut.stats.overlap_cuts > 0
     assert not (cut.islands.crossings > 0).any() and not cut.flipped.any()
     assert metrics.self_overlaps(V, F, cut.corner_uv).islands == 0
     assert [w.kind for w in cut.warnings] == [WarningKind.CUT_APART]  # said, as news
     # with charts too: a disk cut apart is no chart
-    charted = parametrize(V, F, refine=1000, split_overlaps=True, charts=True)
+    charted = parametrize(V, F, refine=DEFAULTS.refine, split_overlaps=True, charts=True)
     assert charted.n_islands > 1 and [w.kind for w in charted.warnings] == [WarningKind.CUT_APART]
     assert charted.stats.charts == 0
     before = metrics.per_island(V, F, plain.corner_uv, plain.face_island).mean_symmetric_dirichlet
@@ -85,7 +86,7 @@ def test_an_island_that_overlaps_itself_is_found_and_cut_apart():
     assert after <= before * 1.01
     # the cuts never run along a polygon's diagonal: cutting a quadrangulated ribbon
     quads_inner = F[: len(F) // 2][:, [0, 2]]  # grid_faces: the cell's triangles a-b-d and a-d-c share a-d
-    again = parametrize(V, F, refine=1000, split_overlaps=True, inner_edges=quads_inner)
+    again = parametrize(V, F, refine=DEFAULTS.refine, split_overlaps=True, inner_edges=quads_inner)
     cut_pairs = {tuple(e) for e in np.sort(again.cut_edges, axis=1).tolist()}
     assert not cut_pairs & {tuple(e) for e in np.sort(quads_inner, axis=1).tolist()}
     assert not (again.islands.crossings > 0).any()

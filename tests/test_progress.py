@@ -6,14 +6,17 @@ import time
 import numpy as np
 import pytest
 
+from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import Cancelled, parametrize, progress
 from isoparam_eval import meshes as ex
 
+REFINE = DEFAULTS.refine  # the operator's
+
 CASES = {  # a mesh and options that take each path of a solve (charts, overlap cuts, extra cuts)
-    "spot, charts": (lambda: ex.load_obj(ex.SPOT)[:2], dict(charts=True, refine=1000, split_overlaps=True)),
-    "peaks, charts checked": (lambda: ex.peaks(41, z_scale=2.0), dict(charts=True, refine=1000, split_overlaps=True)),
-    "ribbon, overlap cuts": (ex.helical_ribbon, dict(charts=False, refine=1000, split_overlaps=True)),
-    "box, extra cuts": (lambda: ex.box(6)[:2], dict(charts=False, refine=1000, extra_cuts=4)),
+    "spot, charts": (lambda: ex.load_obj(ex.SPOT)[:2], dict(charts=True, refine=REFINE, split_overlaps=True)),
+    "peaks, charts checked": (lambda: ex.peaks(41, z_scale=2.0), dict(charts=True, refine=REFINE, split_overlaps=True)),
+    "ribbon, overlap cuts": (ex.helical_ribbon, dict(charts=False, refine=REFINE, split_overlaps=True)),
+    "box, extra cuts": (lambda: ex.box(6)[:2], dict(charts=False, refine=REFINE, extra_cuts=DEFAULTS.extra_cuts)),
     "sphere band, refinement 0": (ex.sphere_band, dict(charts=False, refine=0, unfold=True)),
 }
 ONE_OF_EACH_PATH = {  # a stage each case must pass through
@@ -83,7 +86,7 @@ def test_the_bunny_reports_often_and_stops_within_a_second_of_the_cancel():
     if not path.exists():
         pytest.skip(f"{path} is not on this machine (../shared/meshes)")
     V, F, _ = ex.load_obj(path)
-    _, calls = _logged(V, F, dict(charts=True, refine=1000))
+    _, calls = _logged(V, F, dict(charts=True, refine=REFINE))
     fractions = [f for f, _ in calls]
     assert len(calls) >= 20 and fractions == sorted(fractions) and fractions[-1] == 1.0
     asked = []
@@ -93,7 +96,7 @@ def test_the_bunny_reports_often_and_stops_within_a_second_of_the_cancel():
         return len(asked) < 5
 
     with pytest.raises(Cancelled):
-        parametrize(V, F, charts=True, refine=1000, progress=fifth_says_stop)
+        parametrize(V, F, charts=True, refine=REFINE, progress=fifth_says_stop)
     assert len(asked) == 5 and time.perf_counter() - asked[-1] < 1.0
 
 

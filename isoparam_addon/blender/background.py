@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import threading
 
+from ..operator_options import OperatorOptions
 from . import unwrap
 from .modes import object_mode
 
@@ -37,7 +38,7 @@ class Background:
     status bar, Esc cancels, and every other event that could edit the mesh is held back
     until the run ends (looking around the scene still works)."""
 
-    def __init__(self, context, opts: unwrap.OperatorOptions):
+    def __init__(self, context, opts: OperatorOptions):
         self.job = unwrap.Unwrap(context, opts)
         unwrap.last_run = self.job.record
         self.thread: threading.Thread | None = None

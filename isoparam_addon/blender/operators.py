@@ -1,10 +1,16 @@
-"""Operators: thin wrappers that read their options and call :mod:`.unwrap`."""
+"""Operators: thin wrappers that read their options and call :mod:`.unwrap`.
+
+Every property's default is the preset's (:data:`~isoparam_addon.operator_options.DEFAULTS`),
+so the redo panel, :class:`~isoparam_addon.operator_options.OperatorOptions` and the scripts
+agree.
+"""
 
 from __future__ import annotations
 
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
+from ..operator_options import DEFAULTS, FILL_SHAPES, OperatorOptions
 from . import background, unwrap
 
 __all__ = ["UV_OT_isometric_unwrap", "UV_OT_isometric_show_stretch"]
@@ -21,14 +27,14 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         name="Pack Islands",
         description="Pack the islands into the UV square afterwards; off keeps every island "
         "where its old UVs were (unwrap in place; new charts of one old island share its place)",
-        default=True,
+        default=DEFAULTS.pack,
     )
     pack_shape: EnumProperty(
         name="Pack Shape",
         description="Island shape the packer fits together",
         items=(
             (
-                "ISOPARAM",
+                FILL_SHAPES,
                 "Fill Shapes",
                 "Isometric Unwrap's own packer: islands turned and fitted together by their shapes, small ones "
                 "into the holes left (Blender's Bounding Box where islands are pinned or at True World Scale)",
@@ -37,13 +43,13 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
             ("CONVEX", "Convex Hull", "Tighter than boxes; on many islands it can take longer than Exact Shape"),
             ("CONCAVE", "Exact Shape", "Tightest; seconds on many islands"),
         ),
-        default="ISOPARAM",
+        default=DEFAULTS.pack_shape,
     )
     margin: FloatProperty(
         name="Margin",
         description="Space around every packed island, as a share of the UV square with Fill Shapes (Blender's "
         "scaled margin with its shapes); unused when Margin (px) is set",
-        default=0.001,
+        default=DEFAULTS.margin,
         min=0.0,
         max=1.0,
         precision=3,
@@ -52,34 +58,34 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         name="Margin (px)",
         description="Pixels of empty texture around every island at Texture Size, so islands lie at least "
         "twice that apart and bakes do not bleed; 0 uses Margin instead",
-        default=0,
+        default=DEFAULTS.margin_pixels,
         min=0,
         max=512,
     )
     texture_size: IntProperty(
         name="Texture Size",
         description="Pixels along the side of the texture the margin in pixels is meant for",
-        default=1024,
+        default=DEFAULTS.texture_size,
         min=16,
         max=65536,
     )
     correct_aspect: BoolProperty(
         name="Correct Aspect",
         description="Account for the aspect ratio of the active image texture of the active face's material",
-        default=True,
+        default=DEFAULTS.correct_aspect,
     )
     world_scale: BoolProperty(
         name="True World Scale",
         description="One UV unit is one world unit (object scale and rotation included): texel density "
         "follows the size in the scene",
-        default=False,
+        default=DEFAULTS.world_scale,
     )
     refine: IntProperty(
         name="Refinement",
         description="Most iterations of isometric refinement after the four-step layout (symmetric "
         "Dirichlet, never folds). It stops once converged, so this only caps the time on hard islands. "
         "0 is Sun & Hancock's method alone (an island where it folds is laid out by a conformal map instead)",
-        default=1000,
+        default=DEFAULTS.refine,
         min=0,
         max=5000,
     )
@@ -89,19 +95,19 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         "handles into a few charts: seams along short paths and creases, slits into squeezed tips, until "
         "no more stretched than Max Stretch. Islands your seams bound, and islands with pins, stay whole. "
         "Off: islands are only cut open as far as they must be",
-        default=True,
+        default=DEFAULTS.charts,
     )
     chart_disks: BoolProperty(
         name="Chart Marked Islands",
         description="With Charts: also cut islands that your seams already bound, when they stretch beyond Max Stretch",
-        default=False,
+        default=DEFAULTS.chart_disks,
     )
     max_stretch: FloatProperty(
         name="Max Stretch",
         description="Charts are cut until each island's distortion is no more than that of stretching it "
         "uniformly by this factor (symmetric Dirichlet energy per area at most 2(s\u00b2 + 1/s\u00b2)): "
         "lower gives more charts and less stretch",
-        default=1.18,
+        default=DEFAULTS.max_stretch,
         min=1.01,
         max=10.0,
         precision=2,
@@ -111,14 +117,14 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         name="Mark Seams",
         description="Mark the cuts the unwrap made (charts, openings, overlap cuts) as seams, to edit them "
         "and unwrap again",
-        default=False,
+        default=DEFAULTS.mark_seams,
     )
     extra_cuts: IntProperty(
         name="Extra Cuts",
         description="With Charts off: islands that have to be cut open (closed, with holes or handles, no "
         "seams marked) get up to this many more cuts, each from the cut to the most squeezed or stretched "
         "spot, while they help; every attempt solves again. 0 cuts only as much as opening needs",
-        default=4,
+        default=DEFAULTS.extra_cuts,
         min=0,
         max=20,
     )
@@ -126,13 +132,13 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         name="Cut Overlaps",
         description="Cut an island whose layout overlaps itself (two places of the model on one texel) in two "
         "where its overlapping parts are least apart, and unwrap the parts again",
-        default=True,
+        default=DEFAULTS.split_overlaps,
     )
     show_stretch: BoolProperty(
         name="Show Stretch",
         description="Colour the faces by distortion (colour attribute 'isoparam_stretch': white = true "
         "shape and scale, red = stretched or squeezed twice over)",
-        default=False,
+        default=DEFAULTS.show_stretch,
     )
 
     @classmethod
@@ -141,14 +147,14 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         return ob is not None and ob.type == "MESH" and context.mode == "EDIT_MESH"
 
     def execute(self, context):
-        return unwrap.run(self, context, unwrap.OperatorOptions(**self.as_keywords()))
+        return unwrap.run(self, context, OperatorOptions(**self.as_keywords()))
 
     def invoke(self, context, event):
         """From the UI: solve in a worker thread, Blender responsive, Esc to cancel (scripts
         and background mode call :meth:`execute`, which solves in this thread)."""
         if bpy.app.background or context.window is None:
             return self.execute(context)
-        self._background = background.Background(context, unwrap.OperatorOptions(**self.as_keywords()))
+        self._background = background.Background(context, OperatorOptions(**self.as_keywords()))
         if not self._background.running:
             return self._background.conclude(self, context)
         context.window_manager.modal_handler_add(self)

@@ -4,16 +4,13 @@ would change besides the UVs (the UV selection, pins set for it) kept and put ba
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import bpy
 import numpy as np
 
+from ..operator_options import OperatorOptions
 from . import mesh_io
 from .modes import object_mode
-
-if TYPE_CHECKING:
-    from .unwrap import OperatorOptions
 
 __all__ = ["SYNC_RESELECTS", "Kept", "pack", "prepare_pack"]
 

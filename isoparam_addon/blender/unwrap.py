@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
+from ..operator_options import FILL_SHAPES, OperatorOptions
 from ..solver import Cancelled, InvalidMeshError, metrics, parametrize
 from ..solver.errors import counted
 from ..solver.packing import pack_layout
@@ -35,7 +36,6 @@ from .pack import SYNC_RESELECTS, Kept, pack, prepare_pack
 
 __all__ = [
     "STRETCH_ATTRIBUTE",
-    "OperatorOptions",
     "RunRecord",
     "Unwrap",
     "last_run",
@@ -45,47 +45,6 @@ __all__ = [
 
 
 STRETCH_ATTRIBUTE = "isoparam_stretch"  # the face colour attribute Show Stretch writes
-FILL_SHAPES = "ISOPARAM"  # the Pack Shape that is isoparam's own packer (:mod:`..solver.packing`)
-
-
-@dataclass(frozen=True)
-class OperatorOptions:
-    """The operator's options, as its redo panel shows them (built from ``as_keywords()``:
-    one field per operator property). Defaults are what an artist expects (refinement,
-    charts, overlap cuts on); the solver's :class:`~isoparam_addon.solver.Options` default
-    to the paper's method alone, and :func:`_solve` maps these onto them."""
-
-    pack: bool = True
-    pack_shape: str = "ISOPARAM"
-    margin: float = 0.001
-    margin_pixels: int = 0
-    texture_size: int = 1024
-    correct_aspect: bool = True
-    world_scale: bool = False
-    refine: int = 1000
-    charts: bool = True
-    chart_disks: bool = False
-    max_stretch: float = 1.18
-    mark_seams: bool = False
-    extra_cuts: int = 4
-    split_overlaps: bool = True
-    show_stretch: bool = False
-
-    @property
-    def in_pixels(self) -> bool:
-        """The margin is given in pixels of the texture (Blender's pack margin method
-        FRACTION: that share of the UV square around each island), not as Margin."""
-        return self.margin_pixels > 0
-
-    @property
-    def blender_shape(self) -> str:
-        """The shape Blender's packer is given: Fill Shapes falls back to Bounding Box."""
-        return "AABB" if self.pack_shape == FILL_SHAPES else self.pack_shape
-
-    @property
-    def pack_margin(self) -> float:
-        """The margin as the pack takes it: Margin, or the pixels as a share of the side."""
-        return self.margin_pixels / self.texture_size if self.in_pixels else self.margin
 
 
 def _aspect(obj, sel: mesh_io.Selection) -> float | None:
@@ -333,17 +292,10 @@ def _solve(sel: mesh_io.Selection, opts: OperatorOptions, progress, strict: bool
         sel.V,
         sel.F,
         sel.seams,
-        pack=True,
-        split_nonmanifold=not strict,
-        refine=opts.refine,
-        unfold=True,  # Refinement 0: the paper's layout, but never a fold where a fold-free map exists
         pins=(hold, old) if hold.any() else None,
         inner_edges=sel.diagonals,
-        charts=opts.charts,
-        chart_disks=opts.chart_disks,
-        max_stretch=opts.max_stretch,
-        extra_cuts=opts.extra_cuts,
-        split_overlaps=opts.split_overlaps,
+        options=opts.solver_options(),
+        split_nonmanifold=not strict,
         progress=progress,
     )
     return res, locked, old

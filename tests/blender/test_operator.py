@@ -6,6 +6,7 @@ import bmesh
 import numpy as np
 import pytest
 
+from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_addon.solver.geometry import corner_signed_areas
 from isoparam_addon.solver.overlap import overlapping_faces
@@ -168,7 +169,7 @@ def test_pack_shapes(scene, shape):
         assert (a.max(0) <= b.min(0) + 1e-6).any() or (b.max(0) <= a.min(0) + 1e-6).any()
 
 
-@pytest.mark.parametrize("margin", [0.001, 0.5, 1.0])
+@pytest.mark.parametrize("margin", [DEFAULTS.margin, 0.5, 1.0])
 def test_a_single_island_gets_the_margin_blenders_pack_gives_it(scene, margin):
     # with Blender's shapes one island is fitted into [0, 1] by the add-on (Blender's pack
     # would cost 0.17 s at 100k vertices); packing the result again must not move it. A
@@ -827,7 +828,7 @@ def test_refinement_0_folds_no_triangle_of_a_closed_mesh(scene):
     assert metrics.uv_islands(F, cuv).max() + 1 < 60
 
 
-@pytest.mark.parametrize("refine", [0, 1000])
+@pytest.mark.parametrize("refine", [0, DEFAULTS.refine])
 def test_what_the_four_steps_met_is_a_debug_detail_once_refined(scene, refine, caplog):
     # a band round a sphere: its four-step layout folds; with refinement, which starts it
     # from a conformal map, the result is what counts (no fold): the solver's own fact goes

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from isoparam_addon.blender import background, unwrap
+from isoparam_addon.operator_options import OperatorOptions
 from isoparam_eval import meshes as ex
 
 from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, snapshot
@@ -64,7 +65,7 @@ def test_a_background_unwrap_writes_what_the_operator_writes(scene):
     bpy.ops.object.select_all(action="DESELECT")
     edit(ob)
     op = _Op()
-    watch = background.Background(bpy.context, unwrap.OperatorOptions())
+    watch = background.Background(bpy.context, OperatorOptions())
     assert _drive(watch, op) == {"FINISHED"}
     assert watch.job.fraction == 1.0
     assert op.reports[0][1].startswith("Isometric Unwrap: ") and op.reports[0][0] == {"INFO"}
@@ -78,7 +79,7 @@ def test_esc_while_it_solves_cancels_and_leaves_the_mesh_exactly_as_it_was(scene
     ob = _unwrapped_mesh("spot", V, F)
     before = _state(ob)
     op = _Op()
-    watch = background.Background(bpy.context, unwrap.OperatorOptions())
+    watch = background.Background(bpy.context, OperatorOptions())
     assert watch.running  # (spot takes tenths of a second: Esc comes while it solves)
     assert _drive(watch, op, first="ESC") == {"CANCELLED"}
     assert op.reports == [({"INFO"}, "Isometric Unwrap cancelled: nothing was changed")]
@@ -91,7 +92,7 @@ def test_events_that_could_edit_the_mesh_wait_and_looking_around_goes_through(sc
     V, F, _ = ex.load_obj(ex.SPOT)
     _unwrapped_mesh("spot", V, F)
     op = _Op()
-    watch = background.Background(bpy.context, unwrap.OperatorOptions())
+    watch = background.Background(bpy.context, OperatorOptions())
     assert watch.on_event(op, bpy.context, "MIDDLEMOUSE") == {"PASS_THROUGH"}
     if watch.running:  # a key that would edit the mesh is swallowed while it solves
         assert watch.on_event(op, bpy.context, "G") in ({"RUNNING_MODAL"}, {"FINISHED"})
@@ -110,7 +111,7 @@ def _stages(ob) -> list[str]:
     original = unwrap.Unwrap
     unwrap.Unwrap = Recording
     try:
-        assert _drive(background.Background(bpy.context, unwrap.OperatorOptions()), _Op()) == {"FINISHED"}
+        assert _drive(background.Background(bpy.context, OperatorOptions()), _Op()) == {"FINISHED"}
     finally:
         unwrap.Unwrap = original
     return list(dict.fromkeys(seen))
@@ -133,7 +134,7 @@ def test_a_cancel_in_any_stage_leaves_the_mesh_exactly_as_it_was(scene, monkeypa
 
         monkeypatch.setattr(unwrap, "Unwrap", StopIn)
         op = _Op()
-        assert _drive(background.Background(bpy.context, unwrap.OperatorOptions()), op) == {"CANCELLED"}, stop
+        assert _drive(background.Background(bpy.context, OperatorOptions()), op) == {"CANCELLED"}, stop
         assert op.reports == [({"INFO"}, "Isometric Unwrap cancelled: nothing was changed")]
         object_mode()
         assert snapshot(ob) == before, stop
@@ -145,7 +146,7 @@ def test_with_nothing_selected_it_says_so_without_starting(scene):
     edit(ob)
     bpy.ops.mesh.select_all(action="DESELECT")
     op = _Op()
-    watch = background.Background(bpy.context, unwrap.OperatorOptions())
+    watch = background.Background(bpy.context, OperatorOptions())
     assert not watch.running
     assert watch.conclude(op, bpy.context) == {"CANCELLED"}
     assert op.reports[0][0] == {"ERROR"} and "no faces selected" in op.reports[0][1]
@@ -155,7 +156,7 @@ def test_with_nothing_selected_it_says_so_without_starting(scene):
 def test_only_pressing_esc_cancels(scene, value):
     V, F, _ = ex.load_obj(ex.SPOT)
     _unwrapped_mesh("spot", V, F)
-    watch = background.Background(bpy.context, unwrap.OperatorOptions())
+    watch = background.Background(bpy.context, OperatorOptions())
     watch.on_event(_Op(), bpy.context, "ESC", value)
     assert watch.job.cancel_requested == (value == "PRESS")
     _drive(watch, _Op())
