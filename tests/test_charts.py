@@ -194,7 +194,7 @@ def test_an_island_cut_apart_where_it_overlaps_is_not_counted_as_charted():
     (Vs, Fs), (Vr, Fr) = ex.sphere(2), ex.helical_ribbon()
     V, F = np.vstack([Vs, Vr + [10.0, 0.0, 0.0]]), np.vstack([Fs, Fr + len(Vs)])
     r = parametrize(V, F, options=CHARTS)
-    assert sorted(w.kind for w in r.warnings) == ["charts", "cut_apart"]
+    assert sorted(w.kind for w in r.warnings) == [WarningKind.CHARTS, WarningKind.CUT_APART]
     notes = {w.kind: w for w in r.warnings}
     charts, cut = notes[WarningKind.CHARTS], notes[WarningKind.CUT_APART]
     assert charts.text.startswith("1 island was cut into") and "(1 not a disk;" in charts.text
