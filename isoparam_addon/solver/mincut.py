@@ -33,6 +33,10 @@ _NEVER = 1 << 24  # capacity of an edge that is never cut
 _UNITS = 1000  # capacity of an edge of typical length and no crease
 _REGION_FROM = 4000  # faces: a smaller graph flows whole at once
 _REACH = 1.5  # the first region around the sources and sinks (see source_side)
+_COARSE_FROM = 200_000  # joins (edges) in a flow: from here it runs coarse, then in a band (_banded_side)
+_CLUSTER = 8.0  # ... clusters of about this many faces across (face spacings)
+_RINGS = 2  # ... the band: the clusters along the cut and this many rings of neighbours
+_ROUNDS = 4  # ... moved along with the cut at most this many times
 
 
 @dataclass(frozen=True)
@@ -187,7 +191,79 @@ def _joined(graph: FaceGraph, keep: np.ndarray, source: np.ndarray) -> np.ndarra
 
 def _flow_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.ndarray:
     """:func:`source_side` by one maximum flow over all of ``graph``: the faces reachable
-    from the source in the residual graph."""
+    from the source in the residual graph (coarse, then in a band, on a large graph:
+    :func:`_banded_side`)."""
+    if len(graph.f) >= _COARSE_FROM:
+        banded = _banded_side(graph, source, sink)
+        if banded is not None:
+            return banded
+    return _exact_side(graph, source, sink)
+
+
+def _banded_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.ndarray | None:
+    """:func:`_flow_side` on a large graph, coarse to fine (a banded graph cut, Lombaert
+    et al., "A multilevel banded graph cuts method for fast image segmentation", ICCV
+    2005): the faces are grouped into clusters (the pieces of each cell of a grid about
+    ``_CLUSTER`` face spacings wide), the cut is found between clusters, and then between
+    faces again in the band of clusters along it and their neighbours, the faces beyond
+    the band held on their side. Dinic's flow takes about the square of the faces' count
+    on these graphs (44k faces 1.5 s, 179k faces 33 s); the two small flows take a
+    fraction. None where a cluster holds both source and sink faces (the flow then runs
+    whole)."""
+    m = graph.n_faces
+    d = np.linalg.norm(graph.centroids[graph.f] - graph.centroids[graph.g], axis=1)
+    spacing = float(np.median(d)) if len(d) else 0.0
+    if not spacing > 0.0:
+        return None
+    grid = np.floor(graph.centroids / (_CLUSTER * spacing)).astype(np.int64)
+    grid -= grid.min(axis=0)
+    dims = grid.max(axis=0) + 1
+    if float(np.prod(dims.astype(np.float64))) >= 2.0**62:  # (cells too many to number: none)
+        return None
+    _, cell = np.unique(np.ravel_multi_index(grid.T, dims), return_inverse=True)
+    cell = cell.ravel()
+    inside = cell[graph.f] == cell[graph.g]  # the pieces of each cell: joined within it
+    G = sp.coo_matrix((np.ones(int(inside.sum()), dtype=np.int8), (graph.f[inside], graph.g[inside])), shape=(m, m))
+    n_clusters, cluster = csgraph.connected_components(G, directed=False)
+    c_source = np.bincount(cluster, source, minlength=n_clusters) > 0
+    c_sink = np.bincount(cluster, sink, minlength=n_clusters) > 0
+    if (c_source & c_sink).any():
+        return None
+    # the clusters' graph: what cutting between two clusters costs, summed
+    a, b = cluster[graph.f[~inside]], cluster[graph.g[~inside]]
+    pair, which = np.unique(pair_keys(np.minimum(a, b), np.maximum(a, b), n_clusters), return_inverse=True)
+    cost = np.bincount(which.ravel(), graph.cost[~inside], minlength=len(pair))
+    coarse = FaceGraph(
+        pair // n_clusters, pair % n_clusters, np.zeros((len(pair), 2), np.int64), cost, np.zeros((n_clusters, 3))
+    )
+    c_side = _exact_side(coarse, c_source, c_sink)
+    side = c_side[cluster]
+    best = np.inf
+    for _ in range(_ROUNDS):  # the band follows the cut until it stops shortening
+        crossing = side[graph.f] != side[graph.g]
+        band = np.zeros(n_clusters, dtype=bool)
+        band[cluster[graph.f[crossing]]] = band[cluster[graph.g[crossing]]] = True
+        for _ in range(_RINGS):
+            near = band[coarse.f] | band[coarse.g]
+            band[coarse.f[near]] = band[coarse.g[near]] = True
+        free = band[cluster]
+        keep = free[graph.f] | free[graph.g]  # the edges the fine flow can cut
+        held = np.zeros(m, dtype=bool)
+        held[graph.f[keep]] = held[graph.g[keep]] = True
+        held &= ~free  # faces beyond the band that touch it: on the side they are
+        fine = _exact_side(graph.among_edges(keep), source | (held & side), sink | (held & ~side))
+        fine = np.where(free | held, fine, side)
+        length = float(graph.cost[fine[graph.f] != fine[graph.g]].sum())
+        if not length < best * (1.0 - 1e-9):
+            break
+        best, side = length, fine
+    node = np.zeros(m, dtype=bool)  # (as the whole flow: faces it does not hold are on neither side)
+    node[graph.f] = node[graph.g] = True
+    return side & (node | source | sink)
+
+
+def _exact_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.ndarray:
+    """:func:`_flow_side` by one maximum flow over all of ``graph``."""
     m = graph.n_faces
     # only the faces the edges, sources and sinks touch take part, numbered 0..k-1
     node = np.zeros(m, dtype=bool)
