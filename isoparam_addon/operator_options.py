@@ -19,7 +19,7 @@ from .solver.options import Options
 __all__ = ["DEFAULTS", "FILL_SHAPES", "OperatorOptions"]
 
 
-FILL_SHAPES = "ISOPARAM"  # the Pack Shape that is isoparam's own packer (:mod:`.solver.packing`)
+FILL_SHAPES = "ISOPARAM"  # the Pack Shape that is isoparam's own packer (:mod:`.solver.layout.packing`)
 
 
 @dataclass(frozen=True)

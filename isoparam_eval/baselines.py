@@ -15,14 +15,14 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from isoparam_addon.solver.align import fit_rotation_scale
-from isoparam_addon.solver.islands import Islands
-from isoparam_addon.solver.local import local_flattening
-from isoparam_addon.solver.mesh import HalfEdges, unique_edges
-from isoparam_addon.solver.per_face import FaceFrames
-from isoparam_addon.solver.seeds import tutte
-from isoparam_addon.solver.topology import build_topology
-from isoparam_addon.solver.weights import reconstruction_weights
+from isoparam_addon.solver.mesh.halfedges import HalfEdges, unique_edges
+from isoparam_addon.solver.mesh.islands import Islands
+from isoparam_addon.solver.mesh.topology import build_topology
+from isoparam_addon.solver.refinement.per_face import FaceFrames
+from isoparam_addon.solver.refinement.seeds import tutte
+from isoparam_addon.solver.steps.align import fit_rotation_scale
+from isoparam_addon.solver.steps.local import local_flattening
+from isoparam_addon.solver.steps.weights import reconstruction_weights
 
 __all__ = ["isomap", "floater", "dense_paper", "reconstruction_matrix"]
 
@@ -42,8 +42,9 @@ def isomap(V: np.ndarray, F: np.ndarray) -> np.ndarray:
 
 def floater(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Mean-value coordinates with the boundary on a circle (chord length), scaled to the
-    mesh's area, (n, 2): the solver's Tutte seed (:func:`isoparam_addon.solver.seeds.tutte`)
-    of the whole mesh, which must be one topological disk."""
+    mesh's area, (n, 2): the solver's Tutte seed
+    (:func:`isoparam_addon.solver.refinement.seeds.tutte`) of the whole mesh, which must be
+    one topological disk."""
     V, F, topo = build_topology(V, F)
     if topo.n_islands != 1 or topo.cut_islands.size:
         raise ValueError("floater expects one disk-shaped island")

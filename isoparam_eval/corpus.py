@@ -369,7 +369,7 @@ def topology(F: np.ndarray) -> Topology:
     import scipy.sparse as sp
     from scipy.sparse import csgraph
 
-    from isoparam_addon.solver.mesh import HalfEdges
+    from isoparam_addon.solver.mesh.halfedges import HalfEdges
 
     F = np.asarray(F, dtype=np.int64)
     used, Fc = np.unique(F, return_inverse=True)

@@ -364,7 +364,7 @@ def load_obj(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     UV map (none when it has no ``vt``). Lines are grouped by their number of corners
     and parsed a group at a time.
     """
-    from isoparam_addon.solver.mesh import HalfEdges
+    from isoparam_addon.solver.mesh.halfedges import HalfEdges
 
     text = open(path, encoding="utf-8", errors="replace").read()
     lines = text.splitlines()

@@ -28,8 +28,8 @@ import numpy as np
 
 from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import metrics, parametrize
-from isoparam_addon.solver.per_face import FaceFrames
-from isoparam_addon.solver.topology import build_topology
+from isoparam_addon.solver.mesh.topology import build_topology
+from isoparam_addon.solver.refinement.per_face import FaceFrames
 from isoparam_eval import meshes as ex
 
 

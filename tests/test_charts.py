@@ -1,4 +1,4 @@
-"""Charts (solver/charts.py): islands that are not disks, or stretch beyond the budget, are
+"""Charts (solver/charting/charts.py): islands that are not disks, or stretch beyond the budget, are
 cut into few near-isometric charts; pinned islands and islands within budget stay whole."""
 
 from pathlib import Path
@@ -8,7 +8,7 @@ import pytest
 
 from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import WarningKind, metrics, parametrize
-from isoparam_addon.solver.charts import energy_budget
+from isoparam_addon.solver.charting.charts import energy_budget
 from isoparam_addon.solver.report import OPENED_KINDS
 from isoparam_eval import meshes as ex
 
@@ -159,7 +159,7 @@ def test_a_torus_within_budget_is_only_opened_and_says_so():
 
 
 def test_rounding_of_the_input_does_not_move_the_charts():
-    # the cuts are placed from linear solves (solver/stress.py) before anything is refined,
+    # the cuts are placed from linear solves (solver/charting/stress.py) before anything is refined,
     # on quantities rounded to a grid: rounding of the input does not move them
     V, F, _ = ex.load_obj(SPOT)
     rng = np.random.default_rng(7)

@@ -1,10 +1,10 @@
-"""An island's boundary kept from crossing itself (solver/contact.py): the barrier, its
+"""An island's boundary kept from crossing itself (solver/refinement/contact.py): the barrier, its
 gradient, and the first contact along a step."""
 
 import numpy as np
 import pytest
 
-from isoparam_addon.solver.contact import Contact, Near
+from isoparam_addon.solver.refinement.contact import Contact, Near
 
 
 def _two_banks(gap=0.1):

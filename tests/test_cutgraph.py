@@ -14,8 +14,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.sparse import csgraph
 
-from isoparam_addon.solver.mesh import HalfEdges, pair_keys
-from isoparam_addon.solver.topology import build_topology
+from isoparam_addon.solver.mesh.halfedges import HalfEdges, pair_keys
+from isoparam_addon.solver.mesh.topology import build_topology
 from isoparam_eval import meshes as ex
 from isoparam_eval import variants as va
 

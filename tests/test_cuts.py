@@ -1,12 +1,13 @@
-"""Extra cuts for islands that had to be cut open (solver/cuts.py, parametrize(extra_cuts=))."""
+"""Extra cuts for islands that had to be cut open (solver/charting/cuts.py, parametrize(extra_cuts=))."""
 
 import numpy as np
 import pytest
 
 from isoparam_addon.operator_options import DEFAULTS
-from isoparam_addon.solver import ErrorKind, InvalidMeshError, cuts, metrics, parametrize, resolve
-from isoparam_addon.solver.cuts import area_distortion, next_paths
-from isoparam_addon.solver.mesh import unique_edges
+from isoparam_addon.solver import ErrorKind, InvalidMeshError, metrics, parametrize
+from isoparam_addon.solver.charting import cuts, resolve
+from isoparam_addon.solver.charting.cuts import area_distortion, next_paths
+from isoparam_addon.solver.mesh.halfedges import unique_edges
 from isoparam_eval import meshes as ex
 
 
@@ -155,7 +156,7 @@ def test_no_path_where_nothing_is_distorted_enough():
 def test_a_lone_seam_edge_is_not_where_a_path_starts():
     # a single interior seam edge opens nothing; a path ending there would be a floating
     # slit, a hole the next solve would have to cut open again (found in review)
-    from isoparam_addon.solver.topology import build_topology
+    from isoparam_addon.solver.mesh.topology import build_topology
 
     V, F, diagonals = ex.box(6)
     r = parametrize(V, F, [[1, 2]], refine=100, inner_edges=diagonals, extra_cuts=DEFAULTS.extra_cuts)

@@ -19,8 +19,8 @@ import pytest
 
 from isoparam_addon.operator_options import DEFAULTS
 from isoparam_addon.solver import parametrize
-from isoparam_addon.solver.islands import Islands
-from isoparam_addon.solver.placement import canonical_turn
+from isoparam_addon.solver.layout.placement import canonical_turn
+from isoparam_addon.solver.mesh.islands import Islands
 from isoparam_eval import meshes as ex
 from tests.conftest import procrustes_error  # (tests is a package)
 

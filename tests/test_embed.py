@@ -1,11 +1,11 @@
-"""Step 3 (solver/embed.py): the elimination plan's solves, the pinned least-squares
+"""Step 3 (solver/steps/embed.py): the elimination plan's solves, the pinned least-squares
 basis, degenerate null spaces, and islands that converge at their own pace."""
 
 import numpy as np
 import pytest
 
 from isoparam_addon.solver import parametrize
-from isoparam_addon.solver.mesh import unique_edges
+from isoparam_addon.solver.mesh.halfedges import unique_edges
 from isoparam_eval import meshes as ex
 
 
@@ -36,8 +36,8 @@ def test_pinned_least_squares_match_dense_algebra(n_islands):
     # least-squares basis, on islands whose L has the sparsity of the mesh and no structure
     import scipy.sparse as sp
 
-    from isoparam_addon.solver.embed import _AnchoredLeastSquares, plan_elimination
-    from isoparam_addon.solver.islands import Islands
+    from isoparam_addon.solver.mesh.islands import Islands
+    from isoparam_addon.solver.steps.embed import _AnchoredLeastSquares, plan_elimination
 
     rng = np.random.default_rng(11)
     Vs, Fs, off = [], [], 0
@@ -86,8 +86,8 @@ def test_a_null_space_of_more_than_two_dimensions_gives_a_null_pair_and_stops(gr
     # to rounding there, so a careless solve also returns vectors outside it).
     import scipy.sparse as sp
 
-    from isoparam_addon.solver.embed import spectral_embedding
-    from isoparam_addon.solver.islands import Islands
+    from isoparam_addon.solver.mesh.islands import Islands
+    from isoparam_addon.solver.steps.embed import spectral_embedding
 
     V, F = ex.peaks(grid)
     n = len(V)
@@ -115,7 +115,7 @@ def test_an_island_that_converges_slowly_goes_on_alone(monkeypatch):
     # a closed box (cut open automatically; its symmetry gives Step 3 a slow pair: 38
     # iterations alone) beside a peaks disk (2 iterations): once the disk is done, the box
     # goes on with its own factorization, and ends where solving the box alone ends
-    from isoparam_addon.solver import embed
+    from isoparam_addon.solver.steps import embed
 
     (Vb, Fb, D), (Vp, Fp) = ex.box(8), ex.peaks(41)
     V = np.vstack([Vp, Vb + [5.0, 0.0, 0.0]])

@@ -1,9 +1,9 @@
-"""Per-island reductions and dense algebra (solver/islands.py) against plain loops over islands."""
+"""Per-island reductions and dense algebra (solver/mesh/islands.py) against plain loops over islands."""
 
 import numpy as np
 import pytest
 
-from isoparam_addon.solver.islands import Islands
+from isoparam_addon.solver.mesh.islands import Islands
 
 # every size class of the small islands' groups, an empty island, and large islands
 SIZES = [1, 2, 3, 4, 5, 17, 0, 600, 1024, 1, 1025, 3000, 33]

@@ -1,10 +1,10 @@
-"""Minimum cuts (solver/mincut.py): a large flow runs coarse, then in a band along the
+"""Minimum cuts (solver/charting/mincut.py): a large flow runs coarse, then in a band along the
 coarse cut, and finds the cut the whole flow finds."""
 
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import mincut
+from isoparam_addon.solver.charting import mincut
 from isoparam_eval import meshes as ex
 
 

@@ -5,7 +5,7 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-import isoparam_addon.solver.ordering as ordering
+import isoparam_addon.solver.mesh.ordering as ordering
 from isoparam_eval import meshes as ex
 
 MESHES = {

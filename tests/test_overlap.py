@@ -1,5 +1,5 @@
 """Islands that overlap themselves: exact detection (solver/overlap.py) and their removal by
-a shortest separating cut (solver/untangle.py)."""
+a shortest separating cut (solver/charting/untangle.py)."""
 
 import numpy as np
 import pytest
@@ -52,7 +52,7 @@ def test_faces_overlap_only_with_positive_area():
 
 def test_an_island_whose_boundary_would_fold_over_itself_is_kept_from_it():
     # a C-shaped strip on a saddle: laid out isometrically its ends overlap; the
-    # refinement keeps its boundary from crossing itself (solver/contact.py), so it stays
+    # refinement keeps its boundary from crossing itself (solver/refinement/contact.py), so it stays
     # one island, a little stretched, where without contact it overlapped and was cut in two
     V, F = ex.saddle_c()
     r = parametrize(V, F, refine=DEFAULTS.refine, split_overlaps=True)
@@ -101,8 +101,8 @@ def test_islands_that_do_not_overlap_are_left_alone():
 def test_the_face_graph_of_some_islands_is_the_whole_graph_among_them():
     # the repair builds the graph of the islands that overlap only: the same edges, costs
     # and face numbers as the whole mesh's graph narrowed to them
-    from isoparam_addon.solver.mincut import face_graph
-    from isoparam_addon.solver.topology import build_topology
+    from isoparam_addon.solver.charting.mincut import face_graph
+    from isoparam_addon.solver.mesh.topology import build_topology
 
     V, F = ex.sphere(3)
     V = np.vstack([V + [3.0 * k, 0.0, 0.0] for k in range(3)])  # three parts

@@ -4,9 +4,10 @@ square; never closer than the margin; denser than shelves of boxes; deterministi
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import Cancelled, metrics, packing, parametrize
+from isoparam_addon.solver import Cancelled, metrics, parametrize
+from isoparam_addon.solver.layout import packing
+from isoparam_addon.solver.layout.uv_space import place_in_uv_space
 from isoparam_addon.solver.progress import tracking
-from isoparam_addon.solver.uv_space import place_in_uv_space
 from isoparam_eval import meshes as ex
 from isoparam_eval.layouts import islands_overlapping, least_gap
 

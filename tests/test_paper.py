@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from isoparam_addon.solver import metrics, parametrize
-from isoparam_addon.solver.mesh import unique_edges
+from isoparam_addon.solver.mesh.halfedges import unique_edges
 from isoparam_eval import baselines
 from isoparam_eval import meshes as ex
 

@@ -2,9 +2,9 @@
 
 import numpy as np
 
+from isoparam_addon.solver.layout.placement import shelves
+from isoparam_addon.solver.layout.uv_space import place_in_uv_space
 from isoparam_addon.solver.overlap import overlapping_faces
-from isoparam_addon.solver.placement import shelves
-from isoparam_addon.solver.uv_space import place_in_uv_space
 
 
 def _boxes_overlap(lo, size):

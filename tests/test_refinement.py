@@ -6,10 +6,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from isoparam_addon.solver import WarningKind, metrics, parametrize
-from isoparam_addon.solver.islands import Islands
-from isoparam_addon.solver.mesh import HalfEdges
-from isoparam_addon.solver.per_face import max_step
-from isoparam_addon.solver.refinement import refine
+from isoparam_addon.solver.mesh.halfedges import HalfEdges
+from isoparam_addon.solver.mesh.islands import Islands
+from isoparam_addon.solver.refinement.descent import refine
+from isoparam_addon.solver.refinement.per_face import max_step
 from isoparam_eval import baselines
 from isoparam_eval import meshes as ex
 
@@ -65,7 +65,7 @@ def test_refinement_keeps_developable_meshes_exact(mesh):
 def test_an_island_that_starts_within_the_tolerance_of_isometric_is_left_as_it_is():
     # a plane laid out exactly, then stretched a little: within the tolerance no descent
     # runs and the layout is returned as given, its energy reported; beyond it, refined
-    from isoparam_addon.solver.topology import build_topology
+    from isoparam_addon.solver.mesh.topology import build_topology
 
     V, F, topo = build_topology(*ex.peaks(15, z_scale=0.0))
     X = V[topo.vertex_of]
@@ -150,7 +150,7 @@ def test_islands_are_refined_independently():
 def test_a_large_island_beside_small_ones_is_refined_as_it_would_be_alone(monkeypatch):
     # a large island (its own BLAS dot products) beside small ones (one bincount), and line
     # searches that go on for a few islands only (only their faces evaluated again)
-    from isoparam_addon.solver.islands import Islands, Labelled
+    from isoparam_addon.solver.mesh.islands import Islands, Labelled
 
     parts = (ex.peaks(41), ex.sphere_band(), ex.spherical_cap(10))
     V, F = _islands(*parts)
@@ -179,12 +179,12 @@ def test_a_slow_island_goes_on_alone_where_it_left_off(monkeypatch):
     # a developable S-surface (done after 1 iteration) beside a closed box (11): once the
     # box is all that descends it goes on with its own proxy and the same L-BFGS state,
     # and the layout and energies are those of the refinement without the hand-over
-    from isoparam_addon.solver import refinement
+    from isoparam_addon.solver.refinement import descent
 
     (Vs, Fs), (Vb, Fb, D) = ex.s_surface(100, 30)[:2], ex.box(8)
     V, F, D = np.vstack([Vs, Vb + [5.0, 0.0, 0.0]]), np.vstack([Fs, Fb + len(Vs)]), D + len(Vs)
     handed = []
-    go_on = refinement._go_on_alone
+    go_on = descent._go_on_alone
 
     def spy(d, iterations, done):
         before = d.out.iterations
@@ -192,7 +192,7 @@ def test_a_slow_island_goes_on_alone_where_it_left_off(monkeypatch):
         go_on(d, iterations, done)
         handed.append((rows, d.out.iterations - before))
 
-    monkeypatch.setattr(refinement, "_go_on_alone", spy)
+    monkeypatch.setattr(descent, "_go_on_alone", spy)
     r = parametrize(V, F, refine=100, pack=False, inner_edges=D)
     box = np.arange(len(F)) >= len(Fs)
     assert len(handed) == 1 and handed[0][0] == len(np.unique(r.corner_uv[box].reshape(-1, 2), axis=0))
@@ -200,7 +200,7 @@ def test_a_slow_island_goes_on_alone_where_it_left_off(monkeypatch):
     alone = parametrize(Vb, Fb, refine=100, pack=False, inner_edges=D - len(Vs))
     # (alone, the box factors and rounds differently: it stops within the descent's tolerance)
     assert procrustes_error(alone.corner_uv.reshape(-1, 2), r.corner_uv[box].reshape(-1, 2)) < 1e-5
-    monkeypatch.setattr(refinement, "_HANDOVER", 0.0)
+    monkeypatch.setattr(descent, "_HANDOVER", 0.0)
     whole = parametrize(V, F, refine=100, pack=False, inner_edges=D)
     assert r.stats.refine_iterations == whole.stats.refine_iterations
     np.testing.assert_allclose(r.stats.refine_energy, whole.stats.refine_energy, rtol=1e-9)
@@ -208,9 +208,9 @@ def test_a_slow_island_goes_on_alone_where_it_left_off(monkeypatch):
 
 
 def test_conformal_seed_is_a_similarity_on_a_developable_mesh():
-    from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.per_face import FaceFrames
-    from isoparam_addon.solver.seeds import lscm
+    from isoparam_addon.solver.mesh.islands import Islands
+    from isoparam_addon.solver.refinement.per_face import FaceFrames
+    from isoparam_addon.solver.refinement.seeds import lscm
 
     V, F, U = ex.cylinder_strips(30, (6, 15), seed=3)
     uv = lscm(V, F, Islands(np.zeros(len(V), dtype=np.int64), 1), FaceFrames(V, F), np.array([True]))
@@ -225,10 +225,10 @@ def test_conformal_seed_is_stationary_for_the_cauchy_riemann_energy_but_at_two_p
     zero."""
     import scipy.sparse as sp
 
-    from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.per_face import FaceFrames
-    from isoparam_addon.solver.seeds import lscm
-    from isoparam_addon.solver.topology import build_topology
+    from isoparam_addon.solver.mesh.islands import Islands
+    from isoparam_addon.solver.mesh.topology import build_topology
+    from isoparam_addon.solver.refinement.per_face import FaceFrames
+    from isoparam_addon.solver.refinement.seeds import lscm
 
     (Va, Fa), (Vb, Fb) = ex.peaks(15), ex.spherical_cap(8)
     V, F, topo = build_topology(np.vstack([Va, Vb + 3.0]), np.vstack([Fa, Fb + len(Va)]))
@@ -248,10 +248,10 @@ def test_conformal_seed_is_stationary_for_the_cauchy_riemann_energy_but_at_two_p
 
 
 def test_tutte_seed_never_folds():
-    from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.per_face import FaceFrames
-    from isoparam_addon.solver.seeds import signed_double_areas, tutte
-    from isoparam_addon.solver.topology import build_topology
+    from isoparam_addon.solver.mesh.islands import Islands
+    from isoparam_addon.solver.mesh.topology import build_topology
+    from isoparam_addon.solver.refinement.per_face import FaceFrames
+    from isoparam_addon.solver.refinement.seeds import signed_double_areas, tutte
 
     for V, F in (ex.sphere_band(), ex.s_surface_random(600, 0)[:2]):
         V, F, topo = build_topology(V, F)
@@ -282,9 +282,9 @@ def test_coincident_boundary_vertices_do_not_collapse_the_tutte_seed():
     # found by fuzzing: the cut put the three coincident vertices on the boundary, the
     # chord-length circle put them on one point, and the faces between them had no area;
     # no seed was left, the island was not refined, and 8 of its 20 triangles stayed flipped
-    from isoparam_addon.solver.per_face import FaceFrames
-    from isoparam_addon.solver.seeds import signed_double_areas, tutte
-    from isoparam_addon.solver.topology import build_topology
+    from isoparam_addon.solver.mesh.topology import build_topology
+    from isoparam_addon.solver.refinement.per_face import FaceFrames
+    from isoparam_addon.solver.refinement.seeds import signed_double_areas, tutte
 
     V, F = _icosahedron_with_a_face_collapsed()
     V, F, topo = build_topology(V, F)
@@ -316,11 +316,11 @@ def test_an_island_the_refinement_cannot_open_is_reported():
 def test_seeds_solved_in_a_fill_reducing_order_are_the_same_seeds():
     """lscm and tutte eliminate in Step 3's nested-dissection order when given one: the
     same layout as SuperLU's own COLAMD order, on the flagged islands only."""
-    from isoparam_addon.solver.embed import plan_elimination
-    from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.per_face import FaceFrames
-    from isoparam_addon.solver.seeds import lscm, tutte
-    from isoparam_addon.solver.topology import build_topology
+    from isoparam_addon.solver.mesh.islands import Islands
+    from isoparam_addon.solver.mesh.topology import build_topology
+    from isoparam_addon.solver.refinement.per_face import FaceFrames
+    from isoparam_addon.solver.refinement.seeds import lscm, tutte
+    from isoparam_addon.solver.steps.embed import plan_elimination
 
     parts = [ex.peaks(25), ex.sphere_band(), ex.s_surface_random(500, 2)[:2]]
     offset = np.cumsum([0] + [len(V) for V, _ in parts])
@@ -397,7 +397,7 @@ def test_pins_on_the_copies_of_a_seam_vertex_shape_the_island_without_turning_it
     # it, each pinned where a free unwrap put it (what Blender gives): one mesh vertex,
     # four UVs, so the pins shape the island and set its frame (found in review: the
     # one-pin rule turned it to its principal axes, moving it off the pins' frame)
-    from isoparam_addon.solver.mesh import unique_edges
+    from isoparam_addon.solver.mesh.halfedges import unique_edges
 
     V, F = ex.peaks(11)
     c = 5 * 11 + 5
@@ -567,9 +567,9 @@ def test_an_island_whose_four_step_layout_folds_is_unfolded_then_moved_onto_its_
 
 
 def test_each_island_moves_onto_its_pins_with_its_own_step():
-    from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.pins import refine_to_pins
-    from isoparam_addon.solver.refinement import Refinement
+    from isoparam_addon.solver.layout.pins import refine_to_pins
+    from isoparam_addon.solver.mesh.islands import Islands
+    from isoparam_addon.solver.refinement.descent import Refinement
 
     V1, F1 = ex.peaks(5, z_scale=0.0)  # a flat 5x5 grid
     Y = np.vstack([V1[:, :2], V1[:, :2] + [3.0, 0.0]])
@@ -601,11 +601,11 @@ def test_each_island_moves_onto_its_pins_with_its_own_step():
 def test_the_energy_reported_is_the_layouts_after_a_restarted_island_is_fitted_to_its_pins():
     # an island whose four-step layout folds is refined without its pins, then scaled onto
     # them; when no stage follows, the energy reported was the one from before that scale
-    from isoparam_addon.solver.islands import Islands
-    from isoparam_addon.solver.per_face import FaceFrames
-    from isoparam_addon.solver.pins import refine_to_pins
-    from isoparam_addon.solver.refinement import refine
-    from isoparam_addon.solver.topology import build_topology
+    from isoparam_addon.solver.layout.pins import refine_to_pins
+    from isoparam_addon.solver.mesh.islands import Islands
+    from isoparam_addon.solver.mesh.topology import build_topology
+    from isoparam_addon.solver.refinement.descent import refine
+    from isoparam_addon.solver.refinement.per_face import FaceFrames
 
     V, F = ex.peaks(9)
     seed = parametrize(V, F, refine=0, pack=False)

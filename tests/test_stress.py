@@ -1,11 +1,12 @@
-"""The linear prediction of how a chart will stretch (solver/stress.py): exact where the
+"""The linear prediction of how a chart will stretch (solver/charting/stress.py): exact where the
 surface is flat, right to first order where it is curved, and smooth in the mesh."""
 
 import numpy as np
 import pytest
 
-from isoparam_addon.solver import metrics, parametrize, stress
-from isoparam_addon.solver.topology import build_topology
+from isoparam_addon.solver import metrics, parametrize
+from isoparam_addon.solver.charting import stress
+from isoparam_addon.solver.mesh.topology import build_topology
 from isoparam_eval import meshes as ex
 
 

@@ -4,8 +4,8 @@ import numpy as np
 
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_addon.solver.geometry import triangles
-from isoparam_addon.solver.mesh import HalfEdges, fans, unique_edges
-from isoparam_addon.solver.topology import build_topology
+from isoparam_addon.solver.mesh.halfedges import HalfEdges, fans, unique_edges
+from isoparam_addon.solver.mesh.topology import build_topology
 from isoparam_eval import meshes as ex
 
 from .conftest import edge_length_error

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..solver.mesh import pair_keys
+from ..solver.mesh.halfedges import pair_keys
 
 __all__ = [
     "Selection",

@@ -18,9 +18,9 @@ import numpy as np
 from ..operator_options import FILL_SHAPES, OperatorOptions
 from ..solver import Cancelled, InvalidMeshError, metrics, parametrize
 from ..solver.errors import counted
-from ..solver.packing import pack_layout
+from ..solver.layout.packing import pack_layout
+from ..solver.layout.uv_space import FAR_UV, place_in_uv_space
 from ..solver.progress import tracking
-from ..solver.uv_space import FAR_UV, place_in_uv_space
 from . import mesh_io
 from .messages import (
     NOT_MANIFOLD_ERRORS,

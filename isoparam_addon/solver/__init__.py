@@ -5,8 +5,21 @@
 >>> result.uv                                    # (n, 2) float64, one UV per vertex
 
 This package never imports bpy: it runs in plain CPython and inside Blender alike. One
-solve reads top to bottom in :mod:`.pipeline`; the paper's steps are :mod:`.local`,
-:mod:`.weights`, :mod:`.embed` and :mod:`.align`.
+solve reads top to bottom in :mod:`.pipeline`, a sub-package per stage:
+
+``mesh/``
+    topology: validation, half-edges, islands, cuts that make every island a disk;
+``steps/``
+    the paper's four steps, :mod:`.local`, :mod:`.weights`, :mod:`.embed`, :mod:`.align`;
+``refinement/``
+    beyond the paper: isometric refinement without folds;
+``layout/``
+    pins, placement, and (for the operator) packing and Blender's UV space;
+``charting/``
+    beyond one solve: charts, extra cuts and overlap repair, each solving islands again.
+
+Beside them: the options, errors, result and report types, progress, the shared kernels
+(:mod:`.geometry`, :mod:`.overlap`, concurrency and memory) and :mod:`.metrics`.
 
 References
 ----------
@@ -24,15 +37,15 @@ import numpy as np
 from . import metrics
 from ._memory import retained
 from ._parallel import one_blas_thread
-from .charts import with_charts
-from .cuts import with_extra_cuts
+from .charting.charts import with_charts
+from .charting.cuts import with_extra_cuts
+from .charting.untangle import without_overlaps
 from .errors import ErrorKind, InvalidMeshError, IsoparamError, SolverError
 from .options import Options, Problem
 from .pipeline import solve
 from .progress import Cancelled, ProgressCallback, stage, tracking
 from .report import IslandReport, SolverWarning, Stats, Timings, WarningKind
 from .result import Parametrization
-from .untangle import without_overlaps
 
 __all__ = [
     "parametrize",
@@ -96,7 +109,7 @@ def parametrize(
     Raises
     ------
     InvalidMeshError
-        For invalid input (see :func:`.mesh.check`); nothing is modified in place.
+        For invalid input (see :func:`.halfedges.check`); nothing is modified in place.
     Cancelled
         When ``progress`` returned ``False``; nothing is modified in place.
     """

@@ -51,8 +51,8 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from .geometry import TINY, conformal_parts, corner_signed_areas, next_corner, triangle_angles, triangles
-from .islands import Islands, Labelled
-from .mesh import HalfEdges, orientation, unit_of
+from .mesh.halfedges import HalfEdges, orientation, unit_of
+from .mesh.islands import Islands, Labelled
 
 __all__ = [
     "corner_uvs",
@@ -236,7 +236,7 @@ def folded(F: np.ndarray, cuv: np.ndarray, face_island: np.ndarray) -> np.ndarra
 
 
 def _uv_joins(F: np.ndarray, cuv: np.ndarray):
-    """The half-edges of ``F`` (:class:`.mesh.HalfEdges`), those with a twin of higher
+    """The half-edges of ``F`` (:class:`.halfedges.HalfEdges`), those with a twin of higher
     number, ``h`` (k,), and which of them join their two faces in UV, ``agree`` (k,) bool:
     the same UVs at both ends on both sides."""
     he = HalfEdges(F, int(F.max()) + 1)

@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .geometry import TINY, corner_signed_areas
-from .mesh import pair_keys
+from .mesh.halfedges import pair_keys
 
 __all__ = [
     "Overlaps",
@@ -241,7 +241,7 @@ def self_overlaps(F: np.ndarray, cuv: np.ndarray, face_island: np.ndarray, n_isl
     """:class:`Overlaps` of any layout given per face corner, ``cuv`` (m, 3, 2) of mesh
     faces ``F`` (m, 3), islands ``face_island`` (m,): an island's boundary is where its
     corner UVs disagree across an edge, or the mesh's boundary."""
-    from .mesh import HalfEdges
+    from .mesh.halfedges import HalfEdges
 
     m = len(F)
     if not m:

@@ -1,8 +1,9 @@
 """One solve, top to bottom: topology, the paper's four steps, refinement, placement.
 
-Sun & Hancock's method (:mod:`.local`, :mod:`.weights`, :mod:`.embed`, :mod:`.align`)
-lays out every island of the mesh at once; the refinement (:mod:`.refinement`) and the
-pins (:mod:`.pins`) go beyond the paper, and :mod:`.align` places the islands.
+Each stage is a sub-package: the topology (:mod:`.mesh`), Sun & Hancock's method
+(:mod:`.steps`: :mod:`.local`, :mod:`.weights`, :mod:`.embed`, :mod:`.align`), which lays
+out every island of the mesh at once, then the refinement (:mod:`.refinement`) and the
+pins (:mod:`.pins`), which go beyond the paper, and the placement (:mod:`.placement`).
 
 Two pieces of work need no weights and run beside Steps 1-3 on large meshes (SuperLU
 and numpy release the GIL): Step 3's elimination plan, and the refinement's factored
@@ -16,22 +17,22 @@ import time
 import numpy as np
 
 from ._parallel import background
-from .align import fit_rotation_scale, orient
-from .embed import Embedding, plan_elimination, spectral_embedding
 from .geometry import edge_lengths
-from .islands import Islands
-from .local import local_flattening
-from .mesh import unit_of
+from .layout.pins import Pins, layout_on_pins, pins_on_islands
+from .layout.placement import place
+from .mesh.halfedges import unit_of
+from .mesh.islands import Islands
+from .mesh.topology import Topology, build_topology
 from .options import Options, Problem
-from .pins import Pins, layout_on_pins, pins_on_islands
-from .placement import place
 from .progress import stage
-from .proxy import Proxy, quadratic_proxy
-from .refinement import Refinement, refine, unfolded
+from .refinement.descent import Refinement, refine, unfolded
+from .refinement.proxy import Proxy, quadratic_proxy
 from .report import IslandReport, Stats, Timings
 from .result import Parametrization, assemble
-from .topology import Topology, build_topology
-from .weights import Flagged, reconstruction_weights
+from .steps.align import fit_rotation_scale, orient
+from .steps.embed import Embedding, plan_elimination, spectral_embedding
+from .steps.local import local_flattening
+from .steps.weights import Flagged, reconstruction_weights
 
 __all__ = ["solve", "topology_of"]
 

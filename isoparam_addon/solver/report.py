@@ -319,7 +319,7 @@ def cut_apart(pieces: np.ndarray) -> list[SolverWarning]:
 
 def defects(found) -> list[SolverWarning]:
     """Warnings for what validation split because it was not a manifold (a
-    :class:`.mesh.Defects`), as Blender's unwrap does."""
+    :class:`.halfedges.Defects`), as Blender's unwrap does."""
     out = []
     if len(found.duplicate_faces):
         n = len(found.duplicate_faces)

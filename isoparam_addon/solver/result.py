@@ -8,9 +8,9 @@ import numpy as np
 
 from . import metrics
 from .geometry import signed_areas, triangles
+from .mesh.topology import Topology
 from .overlap import boundary_crossings
 from .report import IslandReport, SolverWarning, Stats, Timings, defects, opened, warnings
-from .topology import Topology
 
 __all__ = ["Parametrization", "assemble", "per_corner_and_vertex", "topology_warnings"]
 

@@ -43,8 +43,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from .geometry import corner_angles, safe_divide
-from .per_face import FaceFrames
+from ..geometry import corner_angles, safe_divide
+from ..refinement.per_face import FaceFrames
 
 __all__ = ["Prediction", "normal_stress", "predict"]
 

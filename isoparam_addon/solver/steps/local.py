@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import NEXT, PREV, corner_angles
-from .mesh import Fans
+from ..geometry import NEXT, PREV, corner_angles
+from ..mesh.halfedges import Fans
 
 __all__ = ["Patch", "local_flattening"]
 

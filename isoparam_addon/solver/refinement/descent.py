@@ -69,13 +69,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..geometry import safe_divide, signed_double_areas
+from ..mesh.halfedges import unique_edges
+from ..mesh.islands import Islands
+from ..mesh.ordering import nested_dissection
+from ..progress import tick
 from .contact import Contact, Near
-from .geometry import safe_divide, signed_double_areas
-from .islands import Islands
-from .mesh import unique_edges
-from .ordering import nested_dissection
 from .per_face import FaceFrames, island_energy, max_step, slim_weights, symmetric_dirichlet
-from .progress import tick
 from .proxy import Proxy, quadratic_proxy
 from .start import start_layout
 

@@ -11,9 +11,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from ._parallel import solve_columns
-from .geometry import safe_divide
-from .islands import Islands
+from .._parallel import solve_columns
+from ..geometry import safe_divide
+from ..mesh.islands import Islands
 from .per_face import FaceFrames
 
 __all__ = ["Proxy", "quadratic_proxy"]

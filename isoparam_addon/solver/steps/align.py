@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import TINY, safe_divide, signed_areas
-from .islands import Islands
+from ..geometry import TINY, safe_divide, signed_areas
+from ..mesh.islands import Islands
 
 __all__ = ["fit_rotation_scale", "orient"]
 

@@ -21,13 +21,13 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .islands import first_rows
+from ..mesh.islands import first_rows
+from ..options import Options, Problem
+from ..progress import geometric, stage
+from ..report import cut_apart
+from ..result import Parametrization
 from .mincut import FaceGraph, face_graph, minimum_cut, without_chips
-from .options import Options, Problem
-from .progress import geometric, stage
-from .report import cut_apart
 from .resolve import carried_warnings, cut_further, pairs
-from .result import Parametrization
 
 __all__ = ["separating_cuts", "without_overlaps"]
 

@@ -3,7 +3,7 @@
 As in Blender: one pin places an island (turned as an unpinned island is, to its
 principal axes), two also fix its rotation and scale (a similarity fit), and with
 refinement three or more also shape it (the pins become Dirichlet constraints of
-:func:`.refinement.refine`). Before refining, the pins are moved onto their targets by a
+:func:`.descent.refine`). Before refining, the pins are moved onto their targets by a
 harmonic deformation of the fitted layout, so the descent starts with every pin in
 place (in stages if one move would fold, see
 :func:`refine_to_pins`).
@@ -18,12 +18,12 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from .errors import ErrorKind, InvalidMeshError, offenders
-from .geometry import signed_double_areas
-from .islands import Islands
-from .mesh import pair_keys
+from ..errors import ErrorKind, InvalidMeshError, offenders
+from ..geometry import signed_double_areas
+from ..mesh.halfedges import pair_keys
+from ..mesh.islands import Islands
+from ..refinement.descent import Refinement
 from .placement import apply_similarity, place, similarity_fit
-from .refinement import Refinement
 
 __all__ = ["Pins", "layout_on_pins", "pin_targets", "pins_on_islands", "refine_to_pins"]
 
@@ -106,7 +106,7 @@ def refine_to_pins(solve, Y, faces, shaping, target, islands: Islands, stages: i
     unfolded), and the rest of the way attempted again. Each island has its own move
     length and fold test: a fold in one island neither shortens another's move nor stops
     it. An island whose layout folds already (the four-step layout can) is refined
-    without its pins (which restarts it from an unfolded seed, see :func:`.refinement.refine`)
+    without its pins (which restarts it from an unfolded seed, see :func:`.descent.refine`)
     and fitted to them by a similarity before they are moved.
 
     Parameters

@@ -36,9 +36,9 @@ import numpy as np
 import scipy.fft
 import scipy.ndimage
 
-from . import progress
-from .geometry import TINY, corner_signed_areas
-from .islands import Islands
+from .. import progress
+from ..geometry import TINY, corner_signed_areas
+from ..mesh.islands import Islands
 from .placement import boxes, shelves
 
 __all__ = ["Packing", "pack_layout"]

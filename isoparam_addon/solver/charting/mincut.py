@@ -21,9 +21,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .geometry import TINY, safe_divide
-from .islands import first_rows
-from .mesh import HalfEdges, pair_keys
+from ..geometry import TINY, safe_divide
+from ..mesh.halfedges import HalfEdges, pair_keys
+from ..mesh.islands import first_rows
 
 __all__ = ["FaceGraph", "face_graph", "minimum_cut", "source_side", "without_chips"]
 
@@ -131,7 +131,7 @@ def face_graph(V: np.ndarray, F: np.ndarray, face_island: np.ndarray, cut, inner
 
 
 def _keys(pairs, n: int) -> np.ndarray:
-    """The :func:`.mesh.pair_keys` of vertex pairs ``pairs`` (k, 2, or None: none)."""
+    """The :func:`.halfedges.pair_keys` of vertex pairs ``pairs`` (k, 2, or None: none)."""
     if pairs is None:
         return np.zeros(0, dtype=np.int64)
     P = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)

@@ -10,10 +10,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .geometry import TINY, corner_signed_areas
-from .islands import Islands
-from .mesh import pair_keys
-from .overlap import uv_points
+from ..geometry import TINY, corner_signed_areas
+from ..mesh.halfedges import pair_keys
+from ..mesh.islands import Islands
+from ..overlap import uv_points
 from .placement import Similarity, apply_similarity, boxes, choose, identity, rotated, shelves, similarity_fit
 
 __all__ = ["FAR_UV", "place_in_uv_space"]

@@ -49,11 +49,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from ._parallel import solve_columns
-from .geometry import TINY, safe_divide
-from .islands import Islands
-from .ordering import nested_dissection
-from .progress import tick
+from .._parallel import solve_columns
+from ..geometry import TINY, safe_divide
+from ..mesh.islands import Islands
+from ..mesh.ordering import nested_dissection
+from ..progress import tick
 
 __all__ = ["Embedding", "EmbeddingTimings", "Plan", "choose_anchors", "plan_elimination", "spectral_embedding"]
 

@@ -22,7 +22,7 @@ tested for crossings at its end instead.
 Banks of a cut laid out as one (a layout cut further goes on from where it was) start in
 contact: they are pushed a thousandth of an edge apart first (:meth:`Contact.separate`).
 
-The refinement watches contact only where it is likely or met (see :mod:`.refinement`).
+The refinement watches contact only where it is likely or met (see :mod:`.descent`).
 """
 
 from __future__ import annotations
@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import safe_divide
-from .mesh import HalfEdges
-from .overlap import _pairs_in_cells, crossings
+from ..geometry import safe_divide
+from ..mesh.halfedges import HalfEdges
+from ..overlap import _pairs_in_cells, crossings
 
 __all__ = ["Contact", "Near"]
 

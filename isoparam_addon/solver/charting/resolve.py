@@ -16,15 +16,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .geometry import safe_divide, signed_double_areas
-from .islands import Islands, first_rows
-from .mesh import unit_of
-from .options import Options, Problem
-from .pipeline import solve
-from .placement import pack_islands
-from .report import TOPOLOGY_KINDS, IslandReport, SolverWarning, WarningKind
-from .result import Parametrization, assemble
-from .topology import build_topology
+from ..geometry import safe_divide, signed_double_areas
+from ..layout.placement import pack_islands
+from ..mesh.halfedges import unit_of
+from ..mesh.islands import Islands, first_rows
+from ..mesh.topology import build_topology
+from ..options import Options, Problem
+from ..pipeline import solve
+from ..report import TOPOLOGY_KINDS, IslandReport, SolverWarning, WarningKind
+from ..result import Parametrization, assemble
 
 __all__ = ["Part", "carried_warnings", "combine", "cut_further", "pairs", "solve_islands", "sub_problem"]
 

@@ -25,8 +25,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .errors import ErrorKind, InvalidMeshError, offenders
-from .geometry import TINY, next_corner, rotate_faces
+from ..errors import ErrorKind, InvalidMeshError, offenders
+from ..geometry import TINY, next_corner, rotate_faces
 
 __all__ = [
     "Fans",

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import signed_double_areas
-from .islands import Islands, Labelled
+from ..geometry import signed_double_areas
+from ..mesh.islands import Islands, Labelled
 from .per_face import FaceFrames, island_energy
 from .seeds import lscm, tutte
 

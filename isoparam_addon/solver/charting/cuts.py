@@ -26,14 +26,14 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .geometry import TINY, corner_signed_areas, face_areas
-from .mesh import HalfEdges, edge_mask
-from .options import Options, Problem
-from .pipeline import solve
-from .progress import geometric, stage
-from .report import TOPOLOGY_KINDS, lowered
+from ..geometry import TINY, corner_signed_areas, face_areas
+from ..mesh.halfedges import HalfEdges, edge_mask
+from ..options import Options, Problem
+from ..pipeline import solve
+from ..progress import geometric, stage
+from ..report import TOPOLOGY_KINDS, lowered
+from ..result import Parametrization
 from .resolve import Part, combine, pairs, solve_islands
-from .result import Parametrization
 
 __all__ = ["area_distortion", "next_paths", "with_extra_cuts"]
 

@@ -20,8 +20,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from .geometry import signed_double_areas
-from .islands import Islands
+from ..geometry import signed_double_areas
+from ..mesh.islands import Islands
 
 __all__ = ["lscm", "tutte"]
 

@@ -33,7 +33,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
-from .geometry import NEXT, PREV, TINY
+from ..geometry import NEXT, PREV, TINY
 from .local import Patch
 
 __all__ = ["Flagged", "reconstruction_weights"]

@@ -1,6 +1,6 @@
 """Topology: islands, their orientation, and cuts that make every island a disk.
 
-:func:`build_topology` validates the mesh (:func:`.mesh.check`), splits it along seams,
+:func:`build_topology` validates the mesh (:func:`.halfedges.check`), splits it along seams,
 finds the islands, orients each consistently, opens every island that is not a disk
 (:mod:`.cutgraph`) and walks the ordered 1-rings (fans) that Step 1 flattens.
 """
@@ -13,10 +13,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
+from ..errors import SolverError
+from ..geometry import face_areas
 from .cutgraph import cut_to_disks
-from .errors import SolverError
-from .geometry import face_areas
-from .mesh import Defects, Fans, HalfEdges, check, edge_mask, face_components, fans, orientation, split, unit_of
+from .halfedges import Defects, Fans, HalfEdges, check, edge_mask, face_components, fans, orientation, split, unit_of
 
 __all__ = ["Topology", "build_topology"]
 
@@ -107,7 +107,7 @@ def build_topology(vertices, faces, seams=None, split_nonmanifold: bool = True, 
     seams : (k, 2) int, optional
         Vertex pairs of edges to cut along (Blender's UV seams).
     split_nonmanifold : bool
-        Split what is not a manifold as Blender's unwrap does (see :func:`.mesh.check`):
+        Split what is not a manifold as Blender's unwrap does (see :func:`.halfedges.check`):
         repeated faces become islands of their own, edges shared by more than two faces
         seams, and a vertex whose faces form several fans one copy per fan; instead of
         raising ``InvalidMeshError``.

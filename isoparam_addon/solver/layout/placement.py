@@ -12,8 +12,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .geometry import TINY
-from .islands import Islands, Labelled
+from ..geometry import TINY
+from ..mesh.islands import Islands, Labelled
 
 __all__ = [
     "Similarity",

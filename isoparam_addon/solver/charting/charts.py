@@ -53,16 +53,16 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from . import metrics, stress
-from .geometry import TINY, corner_angles, corner_signed_areas, face_areas, safe_divide
-from .islands import first_rows
-from .mesh import HalfEdges, edge_mask, pair_keys, split, unique_edges, unit_of
-from .mincut import FaceGraph, face_graph, minimum_cut, source_side, without_chips
-from .options import Options, Problem
-from .ordering import nested_dissection
-from .pipeline import solve, topology_of
-from .progress import geometric, stage, tick
-from .report import (
+from .. import metrics
+from ..geometry import TINY, corner_angles, corner_signed_areas, face_areas, safe_divide
+from ..mesh.halfedges import HalfEdges, edge_mask, pair_keys, split, unique_edges, unit_of
+from ..mesh.islands import first_rows
+from ..mesh.ordering import nested_dissection
+from ..mesh.topology import Topology
+from ..options import Options, Problem
+from ..pipeline import solve, topology_of
+from ..progress import geometric, stage, tick
+from ..report import (
     OPENED_KINDS,
     TOPOLOGY_KINDS,
     SolverWarning,
@@ -72,9 +72,10 @@ from .report import (
     opened,
     over_budget,
 )
+from ..result import Parametrization, topology_warnings
+from . import stress
+from .mincut import FaceGraph, face_graph, minimum_cut, source_side, without_chips
 from .resolve import cut_further, pairs, sub_problem
-from .result import Parametrization, topology_warnings
-from .topology import Topology
 from .untangle import separating_cuts, without_overlaps
 
 __all__ = ["with_charts"]

@@ -9,9 +9,9 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 from scipy.sparse.linalg import splu
 
-from .errors import SolverError
-from .geometry import TINY, edge_lengths, face_areas
-from .mesh import HalfEdges, orientation, pair_keys, split
+from ..errors import SolverError
+from ..geometry import TINY, edge_lengths, face_areas
+from .halfedges import HalfEdges, orientation, pair_keys, split
 
 __all__ = ["cut_to_disks"]
 
@@ -21,7 +21,7 @@ def cut_to_disks(Vu, Fs, vertex_of, he, he0, face_island, todo, area, inner, fli
 
     The cut graph, the orientation along it and the split run on the sub-mesh of the
     faces to cut (often a few islands of many); the other islands keep their vertices.
-    Split vertices keep the order of :func:`.mesh.split` on the whole mesh: by old split
+    Split vertices keep the order of :func:`.halfedges.split` on the whole mesh: by old split
     vertex, then by first corner, both increasing in the sub-mesh's numbering. Lengths
     are compared within the sub-mesh only, so the disks beside an island never break a
     tie between two of its equally short cuts.

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .geometry import TINY, conformal_parts, triangles
-from .islands import Labelled
+from ..geometry import TINY, conformal_parts, triangles
+from ..mesh.islands import Labelled
 
 __all__ = ["FaceFrames", "island_energy", "max_step", "slim_weights", "symmetric_dirichlet"]
 
