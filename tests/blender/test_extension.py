@@ -67,6 +67,8 @@ def test_the_zip_holds_the_manifest_the_addon_scipy_and_threadpoolctl_but_not_nu
     names = zipfile.ZipFile(linux_zip).namelist()
     assert "blender_manifest.toml" in names and "__init__.py" in names
     assert any(n.startswith("solver/") for n in names) and any(n.startswith("blender/") for n in names)
+    sources = {p.relative_to(ROOT / "isoparam_addon").as_posix() for p in (ROOT / "isoparam_addon").rglob("*.py")}
+    assert sorted(sources - set(names)) == []  # every module, the solver's sub-packages too
     wheels = [n for n in names if n.endswith(".whl")]
     kinds = sorted(Path(w).name.split("-")[0] for w in wheels)
     assert kinds == ["scipy", "threadpoolctl"]  # one of each for this platform and Python
