@@ -244,8 +244,6 @@ def unwrap_scene(args, operator: dict) -> dict:
     options; returns the file's report (without its status)."""
     import bpy
 
-    from isoparam_addon.blender import unwrap
-
     meshes = [ob for ob in bpy.context.scene.objects if ob.type == "MESH" and len(ob.data.polygons)]
     if args.objects:
         meshes = [ob for ob in meshes if ob.name in args.objects]
@@ -267,8 +265,11 @@ def unwrap_scene(args, operator: dict) -> dict:
             bpy.ops.uv.isometric_unwrap(**operator)
         finally:
             bpy.ops.object.mode_set(mode="OBJECT")
-        notes += unwrap.last_run.notes
-        warnings += unwrap.last_run.warnings
+        # (the operator's record, as JSON: this script may run an installed extension,
+        # whose modules are not isoparam_addon's)
+        run = json.loads(bpy.context.window_manager.isoparam_run_record)
+        notes += run["notes"]
+        warnings += run["warnings"]
     return dict(
         objects=len(meshes),
         faces=sum(len(ob.data.polygons) for ob in meshes),

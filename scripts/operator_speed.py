@@ -41,8 +41,8 @@ def case(name: str):
 
 
 def timed(method: str, V, F, seams):
-    """Seconds of one operator call on a fresh mesh, and for isoparam where they went
-    (:class:`isoparam_addon.blender.unwrap.RunRecord`)."""
+    """Seconds of one operator call on a fresh mesh, and for isoparam where they went (the
+    :class:`~isoparam_addon.blender.record.RunRecord` the operator left)."""
     bpy.ops.wm.read_homefile(use_empty=True)
     ob = add_mesh("m", V, F, seams)
     edit(ob)
@@ -51,9 +51,9 @@ def timed(method: str, V, F, seams):
     seconds = time.perf_counter() - t
     if method != "isoparam":
         return seconds, None
-    from isoparam_addon.blender import unwrap
+    from isoparam_addon.blender.record import last_record
 
-    return seconds, unwrap.last_run
+    return seconds, last_record(bpy.context)
 
 
 def breakdown(runs) -> str:

@@ -32,7 +32,7 @@ import time
 import numpy as np
 
 import isoparam_addon
-from isoparam_addon.blender import unwrap
+from isoparam_addon.blender.record import last_record
 from isoparam_addon.solver import metrics
 from isoparam_eval import meshes as ex
 from isoparam_eval.blender import add_mesh, bpy, edit, read_uvs, smart_uv_seams
@@ -109,7 +109,8 @@ def measure(name: str, seams: str, repeat: int) -> dict:
         for shape in op:
             t = time.perf_counter()
             assert bpy.ops.uv.isometric_unwrap(pack_shape=shape) == {"FINISHED"}
-            op[shape].append((time.perf_counter() - t, unwrap.last_run.pack, unwrap.last_run.coverage))
+            seconds, run = time.perf_counter() - t, last_record(bpy.context)
+            op[shape].append((seconds, run.pack, run.coverage))
     row = {"mesh": name, "seams": seams}
     for shape, runs in op.items():
         row["op_" + shape] = float(np.median([r[0] for r in runs]))

@@ -148,6 +148,7 @@ def _through_operator(V, F, seams, clock: StageClock):
     through :meth:`~isoparam_addon.blender.unwrap.Unwrap.progressed`)."""
     import isoparam_addon
     from isoparam_addon.blender import unwrap
+    from isoparam_addon.blender.record import last_record
     from isoparam_eval.blender import add_mesh, bpy, edit
 
     class Timed(unwrap.Unwrap):
@@ -160,7 +161,7 @@ def _through_operator(V, F, seams, clock: StageClock):
     ob = add_mesh("m", V, F, seams)
     edit(ob)
     assert bpy.ops.uv.isometric_unwrap() == {"FINISHED"}
-    return unwrap.last_run
+    return last_record(bpy.context)
 
 
 if __name__ == "__main__":

@@ -32,12 +32,14 @@ def _menus():
 def register():
     import bpy
 
+    from . import record
     from .operators import UV_OT_isometric_show_stretch, UV_OT_isometric_unwrap
 
     global _classes
     _classes = (UV_OT_isometric_unwrap, UV_OT_isometric_show_stretch)
     for cls in _classes:
         bpy.utils.register_class(cls)
+    record.register()
     for menu in _menus():
         menu.append(_menu_draw)
 
@@ -45,7 +47,10 @@ def register():
 def unregister():
     import bpy
 
+    from . import record
+
     for menu in _menus():
         menu.remove(_menu_draw)
+    record.unregister()
     for cls in reversed(_classes):
         bpy.utils.unregister_class(cls)

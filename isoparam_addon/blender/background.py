@@ -8,6 +8,7 @@ import threading
 from ..operator_options import OperatorOptions
 from . import unwrap
 from .modes import object_mode
+from .record import RunRecord
 
 __all__ = ["Background"]
 
@@ -36,11 +37,11 @@ class Background:
     """An :class:`Unwrap` whose solve runs in a worker thread while a modal operator
     watches it (:meth:`on_event`): the progress shows in Blender's progress indicator and
     status bar, Esc cancels, and every other event that could edit the mesh is held back
-    until the run ends (looking around the scene still works)."""
+    until the run ends (looking around the scene still works); then :meth:`conclude`
+    writes and returns the run's record."""
 
     def __init__(self, context, opts: OperatorOptions):
         self.job = unwrap.Unwrap(context, opts)
-        unwrap.last_run = self.job.record
         self.thread: threading.Thread | None = None
         self.timer = None
         with object_mode(context):
@@ -57,8 +58,9 @@ class Background:
     def running(self) -> bool:
         return self.thread is not None and self.thread.is_alive()
 
-    def on_event(self, op, context, kind: str, value: str = "PRESS") -> set:
-        """What the modal operator returns for an event of type ``kind``."""
+    def on_event(self, context, kind: str, value: str = "PRESS") -> set | None:
+        """What the modal operator returns for an event of type ``kind`` while the run goes
+        on; None once the solve has ended (then the operator calls :meth:`conclude`)."""
         if kind == "ESC" and value == "PRESS":
             self.job.cancel_requested = True
         elif kind in _NAVIGATION:
@@ -67,17 +69,17 @@ class Background:
             if kind == "TIMER":
                 self._show(context)
             return {"RUNNING_MODAL"}
-        return self.conclude(op, context)
+        return None
 
-    def conclude(self, op, context) -> set:
-        """Once the solve has ended: write and finish, or report why not."""
+    def conclude(self, context) -> RunRecord:
+        """Once the solve has ended: write and finish, or say why not; the run's record."""
         self._close(context)
         job = self.job
         if self.thread is None or job.error or job.cancelled or job.cancel_requested:
-            return job.refuse(op)
+            return job.refuse()
         with object_mode(context):
             job.write()
-        return job.finish(op, context)
+        return job.finish(context)
 
     def _show(self, context) -> None:
         context.window_manager.progress_update(self.job.fraction)

@@ -1,4 +1,4 @@
-"""Operators: thin wrappers that read their options and call :mod:`.unwrap`.
+"""Operators: thin wrappers that read their options, call :mod:`.unwrap` and report.
 
 Every property's default is the preset's (:data:`~isoparam_addon.operator_options.DEFAULTS`),
 so the redo panel, :class:`~isoparam_addon.operator_options.OperatorOptions` and the scripts
@@ -11,7 +11,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from ..operator_options import DEFAULTS, FILL_SHAPES, OperatorOptions
-from . import background, unwrap
+from . import background, record, unwrap
 
 __all__ = ["UV_OT_isometric_unwrap", "UV_OT_isometric_show_stretch"]
 
@@ -147,7 +147,7 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         return ob is not None and ob.type == "MESH" and context.mode == "EDIT_MESH"
 
     def execute(self, context):
-        return unwrap.run(self, context, OperatorOptions(**self.as_keywords()))
+        return self._ended(context, unwrap.run(context, OperatorOptions(**self.as_keywords())))
 
     def invoke(self, context, event):
         """From the UI: solve in a worker thread, Blender responsive, Esc to cancel (scripts
@@ -156,12 +156,23 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
             return self.execute(context)
         self._background = background.Background(context, OperatorOptions(**self.as_keywords()))
         if not self._background.running:
-            return self._background.conclude(self, context)
+            return self._ended(context, self._background.conclude(context))
         context.window_manager.modal_handler_add(self)
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
-        return self._background.on_event(self, context, event.type, event.value)
+        answer = self._background.on_event(context, event.type, event.value)
+        if answer is None:  # the solve has ended
+            return self._ended(context, self._background.conclude(context))
+        return answer
+
+    def _ended(self, context, run: record.RunRecord) -> set:
+        """Report what the run said, leave its record on the window manager for scripts
+        (:func:`.record.last_record`), and end as it did."""
+        for level, text in run.reports:
+            self.report({level}, text)
+        record.store(context, run)
+        return {"FINISHED"} if run.finished else {"CANCELLED"}
 
 
 class UV_OT_isometric_show_stretch(bpy.types.Operator):

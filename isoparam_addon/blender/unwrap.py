@@ -1,22 +1,23 @@
 """The Isometric Unwrap operation: read every mesh in edit mode, solve, then write.
 
 Nothing is written until every selected mesh has been read and solved: a bad mesh
-cancels the whole operation with the mesh and its UVs exactly as they were. The words
-are :mod:`.messages`', the pack round trip :mod:`.pack`'s, the run in a worker thread
-:mod:`.background`'s.
+cancels the whole operation with the mesh and its UVs exactly as they were. A run
+returns its :class:`~.record.RunRecord`, with the words for the operator to report. The
+words are :mod:`.messages`', the pack round trip :mod:`.pack`'s, the run in a worker
+thread :mod:`.background`'s.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import bpy
 import numpy as np
 
 from ..operator_options import FILL_SHAPES, OperatorOptions
-from ..solver import Cancelled, InvalidMeshError, metrics, parametrize
+from ..solver import Cancelled, InvalidMeshError, Timings, metrics, parametrize
 from ..solver.errors import counted
 from ..solver.layout.packing import pack_layout
 from ..solver.layout.uv_space import FAR_UV, place_in_uv_space
@@ -33,12 +34,11 @@ from .messages import (
 )
 from .modes import object_mode
 from .pack import SYNC_RESELECTS, Kept, pack, prepare_pack
+from .record import RunRecord
 
 __all__ = [
     "STRETCH_ATTRIBUTE",
-    "RunRecord",
     "Unwrap",
-    "last_run",
     "run",
     "show_stretch",
 ]
@@ -66,30 +66,6 @@ def _aspect(obj, sel: mesh_io.Selection) -> float | None:
     if node is None or node.image is None or node.image.size[1] == 0:
         return None
     return node.image.size[0] / node.image.size[1]
-
-
-@dataclass
-class RunRecord:
-    """What the last :func:`run` did, for scripts (the batch job, the benchmarks): where it
-    spent its seconds (reading the meshes, the solver, with its own
-    :class:`~isoparam_addon.solver.Timings` per mesh, writing the UVs, seams and stretch
-    colours, Blender's pack, and all of it, mode switches included), the notes and
-    warnings it reported, as reported, and the solver's own facts (``details``: what the
-    four steps met), which go to the ``isoparam`` logger at DEBUG level only."""
-
-    read: float = 0.0
-    solve: float = 0.0
-    write: float = 0.0
-    pack: float = 0.0
-    total: float = 0.0
-    solver: list = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
-    warnings: list[str] = field(default_factory=list)
-    details: list[str] = field(default_factory=list)
-    coverage: float = 0.0  # the share of the UV square the unwrapped faces cover
-
-
-last_run = RunRecord()
 
 
 _log = logging.getLogger("isoparam")
@@ -129,8 +105,8 @@ class Unwrap:
     """One run of Isometric Unwrap, in phases: :meth:`read` and :meth:`write` touch
     Blender (main thread, object mode); :meth:`solve` touches only numpy, so it may run in
     a worker thread while Blender stays responsive (:class:`Background`); :meth:`finish`
-    packs and reports (edit mode). Nothing is written unless every mesh was solved, and
-    nothing at all once a cancel was asked for."""
+    packs and says what was done (edit mode), or :meth:`refuse` why not. Nothing is
+    written unless every mesh was solved, and nothing at all once a cancel was asked for."""
 
     def __init__(self, context, opts: OperatorOptions, wm=None):
         self.opts = opts
@@ -234,20 +210,20 @@ class Unwrap:
             self.kept = prepare_pack(solved, self.objects, self.uv_selection_locks, reselects)
         self.record.write = time.perf_counter() - t_write
 
-    def refuse(self, op) -> set:
-        """Report why nothing was written."""
+    def refuse(self) -> RunRecord:
+        """The record of a run that wrote nothing, with the words why."""
         if self.cancelled or self.cancel_requested:
-            op.report({"INFO"}, "Isometric Unwrap cancelled: nothing was changed")
+            self.record.report("INFO", "Isometric Unwrap cancelled: nothing was changed")
         else:
-            op.report({"ERROR"}, self.error)
-        return {"CANCELLED"}
+            self.record.report("ERROR", self.error)
+        return self.record
 
-    def finish(self, op, context) -> set:
-        """After :meth:`write`: Blender's pack (edit mode), then the report."""
+    def finish(self, context) -> RunRecord:
+        """After :meth:`write`: Blender's pack (edit mode); the record, with its words."""
         if self.far and self.opts.pack:  # Blender's packer makes NaN of such UVs, or crashes
             text = f"not packed: UVs beyond {FAR_UV:.0e} or not finite (far pins, world scale, or a kept corner)"
             self.record.warnings.append(text)
-            op.report({"WARNING"}, f"Isometric Unwrap: {text}")
+            self.record.report("WARNING", f"Isometric Unwrap: {text}")
         written = [s.corner_uv for s in self.solved]
         if self.pack:
             t_pack = time.perf_counter()
@@ -255,17 +231,17 @@ class Unwrap:
             self.record.pack = time.perf_counter() - t_pack
         self.record.coverage = metrics.coverage(*written)
         self.record.total = time.perf_counter() - self.started
-        _report(op, self.solved, self.record)
-        return {"FINISHED"}
+        self.record.finished = True
+        _report(self.solved, self.record)
+        return self.record
 
 
-def run(op, context, opts: OperatorOptions) -> set:
-    """Unwrap the selected faces of every mesh in edit mode, in this thread (scripts, the
-    redo panel, background mode). Returns the operator result."""
-    global last_run
+def run(context, opts: OperatorOptions) -> RunRecord:
+    """Unwrap the selected faces of every mesh in edit mode, in this thread (the operator's
+    :meth:`execute`: scripts, the redo panel, background mode). Returns the run's record:
+    whether anything was written, and the words to report (the caller reports them)."""
     wm = context.window_manager
     job = Unwrap(context, opts, wm)
-    last_run = job.record
     wm.progress_begin(0.0, 1.0)
     # in edit mode the Mesh arrays are stale: read and write them in object mode
     try:
@@ -275,7 +251,7 @@ def run(op, context, opts: OperatorOptions) -> set:
                 job.write()
     finally:
         wm.progress_end()
-    return job.finish(op, context) if solved else job.refuse(op)
+    return job.finish(context) if solved else job.refuse()
 
 
 def _solve(sel: mesh_io.Selection, opts: OperatorOptions, progress, strict: bool = False):
@@ -326,7 +302,7 @@ def _solve_as_blender_would(sel: mesh_io.Selection, opts: OperatorOptions, progr
     return sel, *_solve(sel, opts, progress, strict=False), overlap
 
 
-def _solve_one(inp: _Input, opts: OperatorOptions, progress) -> tuple[_Solved, object]:
+def _solve_one(inp: _Input, opts: OperatorOptions, progress) -> tuple[_Solved, Timings]:
     """Solve one mesh read and place it in UV space (numpy only); its record and the
     solver's timings. Raises :class:`_UnwrapError` with the report's words when it cannot be
     unwrapped, :class:`~isoparam_addon.solver.Cancelled` when ``progress`` says stop."""
@@ -430,22 +406,24 @@ def _write_stretch(me, sel: mesh_io.Selection, distortion: np.ndarray) -> None:
     mesh_io.write_face_colours(me, STRETCH_ATTRIBUTE, metrics.stretch_colours(worst), faces)
 
 
-def _report(op, solved, record: RunRecord) -> None:
+def _report(solved, record: RunRecord) -> None:
+    """The words of a run that wrote: a summary, then every mesh's notes and warnings
+    (its solver's details go to the debug log)."""
     islands = sum(s.n_islands for s in solved)
     worst, mean, _ = metrics.combine_stretch([s.stretch for s in solved])
     where = f" on {len(solved)} meshes" if len(solved) > 1 else ""
-    op.report(
-        {"INFO"},
+    record.report(
+        "INFO",
         f"Isometric Unwrap: {counted(islands, 'island', 'islands')}{where}, stretch worst {worst:#.3g} "
         f"mean {mean:#.4g}, coverage {record.coverage:.0%}, {record.total:.2f} s",
     )
     for s in solved:  # notes and warnings per mesh
         for note in s.notes:
             record.notes.append(f"'{s.sel.name}': {note}")
-            op.report({"INFO"}, f"Isometric Unwrap, '{s.sel.name}': {note}")
+            record.report("INFO", f"Isometric Unwrap, '{s.sel.name}': {note}")
         for w in s.warnings:
             record.warnings.append(f"'{s.sel.name}': {w}")
-            op.report({"WARNING"}, f"Isometric Unwrap, '{s.sel.name}': {w}")
+            record.report("WARNING", f"Isometric Unwrap, '{s.sel.name}': {w}")
         for detail in s.details:
             record.details.append(f"'{s.sel.name}': {detail}")
             _log.debug("'%s': %s", s.sel.name, detail)

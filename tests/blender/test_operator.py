@@ -834,13 +834,13 @@ def test_what_the_four_steps_met_is_a_debug_detail_once_refined(scene, refine, c
     # from a conformal map, the result is what counts (no fold): the solver's own fact goes
     # to the debug log, not the report; without, it is the layout's own story, a warning
     # in the artist's words
-    from isoparam_addon.blender import unwrap as unwrap_module
+    from isoparam_addon.blender.record import last_record
 
     V, F = ex.sphere_band()
     edit(add_mesh("band", V, F))
     with caplog.at_level(logging.DEBUG, logger="isoparam"):
         assert unwrap(refine=refine) == {"FINISHED"}
-    run = unwrap_module.last_run
+    run = last_record(bpy.context)
     assert [d for d in run.details if "four-step layout folded" in d]
     assert any("four-step layout folded" in r.getMessage() and r.levelno == logging.DEBUG for r in caplog.records)
     said = run.notes + run.warnings

@@ -5,7 +5,7 @@ in the report (real bpy; Blender's packer for its shapes and for pinned islands)
 import numpy as np
 import pytest
 
-from isoparam_addon.blender import unwrap
+from isoparam_addon.blender.record import last_record
 from isoparam_addon.solver import metrics
 from isoparam_eval import meshes as ex
 from isoparam_eval.blender import corner_uvs, read_uvs, set_uvs_and_pins
@@ -63,7 +63,7 @@ def test_fill_shapes_covers_more_than_bounding_box_and_says_so(scene):
         bpy.ops.wm.read_homefile(use_empty=True)
         Ft, cuv = _unwrapped(V, F, pack_shape=shape)
         cover[shape] = metrics.coverage(cuv)
-        assert unwrap.last_run.coverage == pytest.approx(cover[shape], abs=1e-6)
+        assert last_record(bpy.context).coverage == pytest.approx(cover[shape], abs=1e-6)
         assert islands_overlapping(cuv, metrics.uv_islands(Ft, cuv)) == 0
     assert cover["ISOPARAM"] > 1.2 * cover["AABB"]
 
@@ -91,7 +91,7 @@ def test_pinned_islands_stay_and_the_rest_is_packed_by_blenders_packer(scene):
     object_mode()
     _, after = read_uvs(ob)
     assert np.allclose(after[label == 0], before, atol=1e-6)  # the pinned island stayed
-    assert unwrap.last_run.pack > 0
+    assert last_record(bpy.context).pack > 0
 
 
 def test_one_island_is_fitted_with_the_same_margin_in_pixels(scene):
@@ -111,7 +111,7 @@ def test_the_report_says_how_much_of_the_texture_is_covered(scene, capfd):
     printed = capfd.readouterr().out
     covered = metrics.coverage(cuv)
     assert 0.2 < covered < 1.0
-    assert unwrap.last_run.coverage == pytest.approx(covered, abs=1e-6)  # (as packed, read back)
+    assert last_record(bpy.context).coverage == pytest.approx(covered, abs=1e-6)  # (as packed, read back)
     assert f"coverage {covered:.0%}" in printed
 
 

@@ -5,7 +5,8 @@ leaves the mesh exactly as it was.
 
 (bpy as a module has no window, so the operator itself runs its synchronous path here:
 ``invoke`` falls back to ``execute``. These tests drive the same object the modal
-operator delegates every event to.)
+operator delegates every event to, and read the record it concludes with, whose words the
+operator reports.)
 """
 
 import time
@@ -20,26 +21,20 @@ from isoparam_eval import meshes as ex
 from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, snapshot
 
 
-class _Op:
-    """Stands in for the operator instance: keeps what it is asked to report."""
-
-    def __init__(self):
-        self.reports = []
-
-    def report(self, kind, text):
-        self.reports.append((set(kind), text))
-
-
-def _drive(watch, op, first="TIMER"):
+def _drive(watch, first="TIMER"):
     """Events as Blender sends them to the modal operator: ``first``, then a timer tick
-    every 10 ms until the run ends; the operator's result."""
-    answer = watch.on_event(op, bpy.context, first)
+    every 10 ms until the run ends; then, as the operator does, the run's record."""
+    answer = watch.on_event(bpy.context, first)
     for _ in range(30_000):
-        if answer != {"RUNNING_MODAL"}:
-            return answer
+        if answer is None:
+            return watch.conclude(bpy.context)
+        assert answer == {"RUNNING_MODAL"}
         time.sleep(0.01)
-        answer = watch.on_event(op, bpy.context, "TIMER")
+        answer = watch.on_event(bpy.context, "TIMER")
     raise AssertionError("the background unwrap never ended")
+
+
+_CANCELLED = [("INFO", "Isometric Unwrap cancelled: nothing was changed")]
 
 
 def _unwrapped_mesh(name, V, F):
@@ -64,11 +59,11 @@ def test_a_background_unwrap_writes_what_the_operator_writes(scene):
     expected = corner_uvs(ob).copy()
     bpy.ops.object.select_all(action="DESELECT")
     edit(ob)
-    op = _Op()
     watch = background.Background(bpy.context, OperatorOptions())
-    assert _drive(watch, op) == {"FINISHED"}
+    run = _drive(watch)
+    assert run.finished
     assert watch.job.fraction == 1.0
-    assert op.reports[0][1].startswith("Isometric Unwrap: ") and op.reports[0][0] == {"INFO"}
+    assert run.reports[0][1].startswith("Isometric Unwrap: ") and run.reports[0][0] == "INFO"
     object_mode()
     # (two solves of one mesh agree to ~1e-12, not bit for bit: measured 3e-12 on this box)
     assert np.allclose(corner_uvs(ob), expected, rtol=0, atol=1e-6)
@@ -78,11 +73,10 @@ def test_esc_while_it_solves_cancels_and_leaves_the_mesh_exactly_as_it_was(scene
     V, F, _ = ex.load_obj(ex.SPOT)
     ob = _unwrapped_mesh("spot", V, F)
     before = _state(ob)
-    op = _Op()
     watch = background.Background(bpy.context, OperatorOptions())
     assert watch.running  # (spot takes tenths of a second: Esc comes while it solves)
-    assert _drive(watch, op, first="ESC") == {"CANCELLED"}
-    assert op.reports == [({"INFO"}, "Isometric Unwrap cancelled: nothing was changed")]
+    run = _drive(watch, first="ESC")
+    assert not run.finished and run.reports == _CANCELLED
     assert not watch.running and watch.job.cancelled  # the solve itself stopped
     object_mode()
     assert snapshot(ob) == before
@@ -91,12 +85,11 @@ def test_esc_while_it_solves_cancels_and_leaves_the_mesh_exactly_as_it_was(scene
 def test_events_that_could_edit_the_mesh_wait_and_looking_around_goes_through(scene):
     V, F, _ = ex.load_obj(ex.SPOT)
     _unwrapped_mesh("spot", V, F)
-    op = _Op()
     watch = background.Background(bpy.context, OperatorOptions())
-    assert watch.on_event(op, bpy.context, "MIDDLEMOUSE") == {"PASS_THROUGH"}
+    assert watch.on_event(bpy.context, "MIDDLEMOUSE") == {"PASS_THROUGH"}
     if watch.running:  # a key that would edit the mesh is swallowed while it solves
-        assert watch.on_event(op, bpy.context, "G") in ({"RUNNING_MODAL"}, {"FINISHED"})
-    assert _drive(watch, op) == {"FINISHED"}
+        assert watch.on_event(bpy.context, "G") in ({"RUNNING_MODAL"}, None)
+    assert _drive(watch).finished
 
 
 def _stages(ob) -> list[str]:
@@ -111,7 +104,7 @@ def _stages(ob) -> list[str]:
     original = unwrap.Unwrap
     unwrap.Unwrap = Recording
     try:
-        assert _drive(background.Background(bpy.context, OperatorOptions()), _Op()) == {"FINISHED"}
+        assert _drive(background.Background(bpy.context, OperatorOptions())).finished
     finally:
         unwrap.Unwrap = original
     return list(dict.fromkeys(seen))
@@ -133,9 +126,8 @@ def test_a_cancel_in_any_stage_leaves_the_mesh_exactly_as_it_was(scene, monkeypa
                 return super().progressed(fraction, stage)
 
         monkeypatch.setattr(unwrap, "Unwrap", StopIn)
-        op = _Op()
-        assert _drive(background.Background(bpy.context, OperatorOptions()), op) == {"CANCELLED"}, stop
-        assert op.reports == [({"INFO"}, "Isometric Unwrap cancelled: nothing was changed")]
+        run = _drive(background.Background(bpy.context, OperatorOptions()))
+        assert not run.finished and run.reports == _CANCELLED, stop
         object_mode()
         assert snapshot(ob) == before, stop
         edit(ob)
@@ -145,11 +137,12 @@ def test_with_nothing_selected_it_says_so_without_starting(scene):
     ob = add_mesh("box", *ex.box(3)[:2])
     edit(ob)
     bpy.ops.mesh.select_all(action="DESELECT")
-    op = _Op()
     watch = background.Background(bpy.context, OperatorOptions())
     assert not watch.running
-    assert watch.conclude(op, bpy.context) == {"CANCELLED"}
-    assert op.reports[0][0] == {"ERROR"} and "no faces selected" in op.reports[0][1]
+    assert watch.on_event(bpy.context, "TIMER") is None
+    run = watch.conclude(bpy.context)
+    assert not run.finished
+    assert run.reports[0][0] == "ERROR" and "no faces selected" in run.reports[0][1]
 
 
 @pytest.mark.parametrize("value", ["PRESS", "RELEASE"])
@@ -157,9 +150,9 @@ def test_only_pressing_esc_cancels(scene, value):
     V, F, _ = ex.load_obj(ex.SPOT)
     _unwrapped_mesh("spot", V, F)
     watch = background.Background(bpy.context, OperatorOptions())
-    watch.on_event(_Op(), bpy.context, "ESC", value)
+    watch.on_event(bpy.context, "ESC", value)
     assert watch.job.cancel_requested == (value == "PRESS")
-    _drive(watch, _Op())
+    _drive(watch)
 
 
 def test_invoked_without_a_window_it_unwraps_in_one_go(scene):

@@ -73,7 +73,7 @@ _SOLVER_WORDS = re.compile(r"\b(steps?|four-step|fans?|restart\w*|converg\w*|deg
 
 @pytest.mark.parametrize("name", [*ex.REAL, "nefertiti"])
 def test_a_default_unwrap_reports_in_the_artists_words(scene, name, capfd):
-    from isoparam_addon.blender import unwrap
+    from isoparam_addon.blender.record import last_record
 
     ob = imported(ex.SPOT if name == "spot" else ex.SHARED / f"{name}.obj")
     capfd.readouterr()
@@ -81,7 +81,7 @@ def test_a_default_unwrap_reports_in_the_artists_words(scene, name, capfd):
     printed = capfd.readouterr().out
     said = [line for line in printed.splitlines() if "Isometric Unwrap" in line]
     assert said and said == [line for line in said if not _SOLVER_WORDS.search(line)]
-    run = unwrap.last_run
+    run = last_record(bpy.context)
     assert not [w for w in run.notes + run.warnings if _SOLVER_WORDS.search(w)]
     object_mode()
     assert ob.data.uv_layers.active is not None
