@@ -644,3 +644,22 @@ def test_a_seed_whose_energy_overflows_is_repaired_by_arap():
     assert r.energy[0] == np.inf and np.isfinite(r.energy[1:]).all()
     assert r.energy[-1] == pytest.approx(4.0, abs=1e-6)  # isometric: the triangle is planar
     np.testing.assert_allclose(r.uv[2], [0.5, 0.3], atol=1e-5)
+
+
+def test_the_energy_the_metrics_report_is_the_one_the_refinement_lowers():
+    # the refinement's per-island energy, in its two parts (sum A |J|^2 and sum A |J^-1|^2)
+    # taken to each island's best scale, is what metrics.per_island reports for the layout:
+    # one symmetric Dirichlet energy, whichever module measures it
+    from isoparam_addon.solver.mesh.topology import build_topology
+
+    V, F, topo = build_topology(*ex.peaks(21, z_scale=1.5))
+    X = V[topo.vertex_of]
+    islands = Islands(topo.vertex_island, topo.n_islands)
+    seed = parametrize(V, F, refine=0, pack=False).uv  # the four steps' layout, far from isometric
+    r = refine(X, topo.faces, seed, islands, topo.he.twin)
+    assert r.iterations > 0
+    fro, inverse = r.island_parts
+    best = 2.0 * np.sqrt(fro * inverse) / r.island_area  # min over s of (s^2 fro + inverse / s^2) / area
+    reported = metrics.per_island(X, topo.faces, r.uv, topo.vertex_island[topo.faces[:, 0]])
+    assert reported.symmetric_dirichlet == pytest.approx(best, rel=1e-9)
+    assert (r.island_energy / r.island_area >= best * (1 - 1e-12)).all()  # as laid out: no lower
