@@ -207,9 +207,8 @@ def _banded_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.n
     ``_CLUSTER`` face spacings wide), the cut is found between clusters, and then between
     faces again in the band of clusters along it and their neighbours, the faces beyond
     the band held on their side. Dinic's flow takes about the square of the faces' count
-    on these graphs (44k faces 1.5 s, 179k faces 33 s); the two small flows take a
-    fraction. None where a cluster holds both source and sink faces (the flow then runs
-    whole)."""
+    on these graphs (figures in docs/benchmarks.md); the two small flows take a fraction.
+    None where a cluster holds both source and sink faces (the flow then runs whole)."""
     m = graph.n_faces
     d = np.linalg.norm(graph.centroids[graph.f] - graph.centroids[graph.g], axis=1)
     spacing = float(np.median(d)) if len(d) else 0.0
