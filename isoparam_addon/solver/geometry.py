@@ -15,6 +15,7 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = [
+    "det2",
     "NEXT",
     "TINY",
     "PREV",
@@ -71,12 +72,18 @@ def safe_divide(a, b, fill: float = 0.0):
     return np.where(nonzero, np.divide(a, np.where(nonzero, b, 1.0)), fill)
 
 
+def det2(a, b, c, d):
+    """The determinant of 2x2 matrices ``[[a, b], [c, d]]``, element by element: a Jacobian's,
+    or twice the signed area of a triangle with edges ``(a, c)`` and ``(b, d)``."""
+    return a * d - b * c
+
+
 def signed_double_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Twice the signed area of every triangle of a layout, (m,), positive counter-clockwise."""
     u, v = np.ascontiguousarray(uv[:, 0]), np.ascontiguousarray(uv[:, 1])
     a, b, c = (np.ascontiguousarray(faces[:, k]) for k in range(3))
     ua, va = u[a], v[a]
-    return (u[b] - ua) * (v[c] - va) - (v[b] - va) * (u[c] - ua)
+    return det2(u[b] - ua, u[c] - ua, v[b] - va, v[c] - va)
 
 
 def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -87,7 +94,7 @@ def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def corner_signed_areas(cuv: np.ndarray) -> np.ndarray:
     """Signed area of every triangle given by its corner UVs (m, 3, 2) -> (m,)."""
     u, v = cuv[..., 0], cuv[..., 1]
-    return 0.5 * ((u[:, 1] - u[:, 0]) * (v[:, 2] - v[:, 0]) - (v[:, 1] - v[:, 0]) * (u[:, 2] - u[:, 0]))
+    return 0.5 * det2(u[:, 1] - u[:, 0], u[:, 2] - u[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
 
 
 COLLAPSED = 1e-6  # a face this flat (height over its longer side) has no area to speak of

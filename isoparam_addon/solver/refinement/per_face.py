@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..geometry import TINY, conformal_parts, triangles
+from ..geometry import TINY, conformal_parts, det2, triangles
 from ..mesh.islands import Labelled
 
 __all__ = ["FaceFrames", "island_energy", "max_step", "slim_weights", "symmetric_dirichlet"]
@@ -68,7 +68,7 @@ class FaceFrames:
 
 def symmetric_dirichlet(a, b, c, d, area):
     """Symmetric Dirichlet per face and its derivative with respect to J."""
-    det = a * d - b * c
+    det = det2(a, b, c, d)
     fro = a * a + b * b + c * c + d * d
     inv = fro / (det * det)  # ||J^{-1}||_F^2 = ||J||_F^2 / det^2 in 2D
     e = area * (fro + inv)
@@ -89,9 +89,9 @@ def max_step(J, dJ, limit: float = np.inf):
     """
     a, b, c, d = J
     da, db, dc, dd = dJ
-    qa = da * dd - db * dc
+    qa = det2(da, db, dc, dd)
     qb = a * dd + d * da - b * dc - c * db
-    qc = a * d - b * c
+    qc = det2(a, b, c, d)
     t = np.full(len(a), np.inf)
     if np.isfinite(limit):
         with np.errstate(invalid="ignore"):
@@ -139,4 +139,4 @@ def island_energy(frames: FaceFrames, per_face: Labelled, uv: np.ndarray) -> np.
     a, b, c, d = frames.jacobians(uv)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         e, _ = symmetric_dirichlet(a, b, c, d, frames.area)
-    return per_face.sum(np.where(a * d - b * c > 0, e, np.inf))
+    return per_face.sum(np.where(det2(a, b, c, d) > 0, e, np.inf))
