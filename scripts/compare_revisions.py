@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver.options import Options
 
 ROOT = Path(__file__).resolve().parent.parent

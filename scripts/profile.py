@@ -20,7 +20,7 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import parametrize
 from isoparam_eval.corpus import load_mesh
 

@@ -26,7 +26,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_addon.solver.mesh.topology import build_topology
 from isoparam_addon.solver.refinement.per_face import FaceFrames

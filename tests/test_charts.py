@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import WarningKind, metrics, parametrize
 from isoparam_addon.solver.charting.charts import energy_budget
 from isoparam_addon.solver.report import OPENED_KINDS

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import ErrorKind, InvalidMeshError, metrics, parametrize
 from isoparam_addon.solver.charting import cuts, resolve
 from isoparam_addon.solver.charting.cuts import area_distortion, next_paths

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import parametrize
 from isoparam_addon.solver.layout.placement import canonical_turn
 from isoparam_addon.solver.mesh.islands import Islands
@@ -33,7 +33,7 @@ REFINED = dict(refine=100, extra_cuts=DEFAULTS.extra_cuts)
 _SOLVE = r"""
 import sys
 import numpy as np
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_eval import meshes as ex
 

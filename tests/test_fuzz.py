@@ -12,7 +12,7 @@ draws its own mix, the same on every run.
 import numpy as np
 import pytest
 
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_eval import meshes as ex
 from isoparam_eval import variants as va

@@ -4,7 +4,7 @@ a shortest separating cut (solver/charting/untangle.py)."""
 import numpy as np
 import pytest
 
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import WarningKind, metrics, parametrize
 from isoparam_addon.solver.overlap import crossings, overlapping_faces, shared_area
 from isoparam_eval import meshes as ex

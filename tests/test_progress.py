@@ -6,7 +6,7 @@ import time
 import numpy as np
 import pytest
 
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import Cancelled, parametrize, progress
 from isoparam_eval import meshes as ex
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import threading
 
-from ..operator_options import OperatorOptions
+from ..operation.options import OperatorOptions
 from . import unwrap
 from .modes import object_mode
 from .record import RunRecord

@@ -1,8 +1,8 @@
 """Operators: thin wrappers that read their options, call :mod:`.unwrap` and report.
 
-Every property's default is the preset's (:data:`~isoparam_addon.operator_options.DEFAULTS`),
-so the redo panel, :class:`~isoparam_addon.operator_options.OperatorOptions` and the scripts
-agree.
+The redo panel's properties (:class:`UnwrapProperties`) take their defaults from the preset
+(:data:`~isoparam_addon.operation.options.DEFAULTS`), so the redo panel,
+:class:`~isoparam_addon.operation.options.OperatorOptions` and the scripts agree.
 """
 
 from __future__ import annotations
@@ -10,18 +10,16 @@ from __future__ import annotations
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from ..operator_options import DEFAULTS, FILL_SHAPES, OperatorOptions
+from ..operation.options import DEFAULTS, FILL_SHAPES, OperatorOptions
 from . import background, record, unwrap
 
-__all__ = ["UV_OT_isometric_unwrap", "UV_OT_isometric_show_stretch"]
+__all__ = ["UV_OT_isometric_show_stretch", "UV_OT_isometric_unwrap", "UnwrapProperties"]
 
 
-class UV_OT_isometric_unwrap(bpy.types.Operator):
-    """Unwrap the selected faces so that UV edge lengths match the 3D edge lengths"""
-
-    bl_idname = "uv.isometric_unwrap"
-    bl_label = "Isometric Unwrap"
-    bl_options = {"REGISTER", "UNDO"}
+class UnwrapProperties:
+    """The redo panel of Isometric Unwrap: one property per field of
+    :class:`~isoparam_addon.operation.options.OperatorOptions`, its default the preset's
+    (Blender registers the annotations of an operator's bases as its properties)."""
 
     pack: BoolProperty(
         name="Pack Islands",
@@ -140,6 +138,14 @@ class UV_OT_isometric_unwrap(bpy.types.Operator):
         "shape and scale, red = stretched or squeezed twice over)",
         default=DEFAULTS.show_stretch,
     )
+
+
+class UV_OT_isometric_unwrap(UnwrapProperties, bpy.types.Operator):
+    """Unwrap the selected faces so that UV edge lengths match the 3D edge lengths"""
+
+    bl_idname = "uv.isometric_unwrap"
+    bl_label = "Isometric Unwrap"
+    bl_options = {"REGISTER", "UNDO"}
 
     @classmethod
     def poll(cls, context):

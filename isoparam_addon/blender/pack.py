@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ..operator_options import OperatorOptions
+from ..operation.options import OperatorOptions
 from . import mesh_io
 from .modes import object_mode
 

@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from isoparam_addon.blender import mesh_io, messages
-from isoparam_addon.solver import ErrorKind, InvalidMeshError
+from isoparam_addon.blender import mesh_io
 from isoparam_eval import meshes as ex
 
 from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, set_uvs_and_pins, snapshot
@@ -227,30 +226,6 @@ def test_a_pinned_quad_is_counted_once(scene):
     assert result == {"CANCELLED"}
     assert "'bad': 1 face has pinned corners with non-finite UVs (first: face 3)" in message
     assert snapshot(ob) == before
-
-
-def test_overlapping_faces_are_named_in_the_message():
-    # two faces whose triangulations share a triangle (n-gons the other diagonal cannot fix)
-    sel = mesh_io.Selection(
-        name="m",
-        V=np.zeros((6, 3)),
-        F=np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [2, 1, 0], [0, 2, 5]]),
-        tri_loops=np.zeros((5, 3), np.int64),
-        tri_poly=np.array([0, 0, 0, 1, 1]),
-        vert_ids=np.arange(6),
-        seams=np.zeros((0, 2), np.int64),
-        diagonals=np.zeros((0, 2), np.int64),
-        uv=np.zeros((0, 2), np.float32),
-        locked=np.zeros(0, bool),
-        pinned=np.zeros(0, bool),
-        face_material=np.zeros(5, np.int64),
-        uv_name="UVMap",
-    )
-    err = InvalidMeshError(
-        ErrorKind.DUPLICATE_FACE, "1 face repeats the vertices of an earlier face (first: face 3)", "face", [3]
-    )
-    text = messages.describe(err, sel)
-    assert "faces 0 and 1 share three vertices" in text and "Delete or dissolve one of the two faces" in text
 
 
 def test_the_message_names_mesh_elements(scene):

@@ -6,7 +6,7 @@ import bmesh
 import numpy as np
 import pytest
 
-from isoparam_addon.operator_options import DEFAULTS
+from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_addon.solver.geometry import corner_signed_areas
 from isoparam_addon.solver.overlap import overlapping_faces

@@ -1,4 +1,4 @@
-"""The operator's redo panel and its preset (isoparam_addon/operator_options.py) agree:
+"""The operator's redo panel and its preset (isoparam_addon/operation/options.py) agree:
 one property per field, each property's default the preset's."""
 
 from dataclasses import fields
@@ -6,7 +6,7 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
-from isoparam_addon.operator_options import DEFAULTS, OperatorOptions
+from isoparam_addon.operation.options import DEFAULTS, OperatorOptions
 
 from .conftest import bpy
 

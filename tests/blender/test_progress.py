@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from isoparam_addon.blender import background, unwrap
-from isoparam_addon.operator_options import OperatorOptions
+from isoparam_addon.operation.options import OperatorOptions
 from isoparam_eval import meshes as ex
 
 from .conftest import add_mesh, bpy, corner_uvs, edit, object_mode, snapshot

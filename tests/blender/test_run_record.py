@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from isoparam_addon.blender import record, unwrap
-from isoparam_addon.operator_options import OperatorOptions
+from isoparam_addon.operation.options import OperatorOptions
 from isoparam_addon.solver import Timings
 from isoparam_eval import meshes as ex
 

@@ -6,7 +6,7 @@ properties read their ``default=`` from it, the operator builds one from its
 ``as_keywords()``, and :meth:`OperatorOptions.solver_options` is what it asks the solver
 for, so scripts and tests that solve "as the operator does" read it too.
 
-This module imports neither ``bpy`` nor :mod:`.blender` (only the solver's
+This module imports neither ``bpy`` nor :mod:`~isoparam_addon.blender` (only the solver's
 :class:`~isoparam_addon.solver.Options`), so the preset is at hand in plain CPython.
 """
 
@@ -14,12 +14,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .solver.options import Options
+from ..solver.options import Options
 
 __all__ = ["DEFAULTS", "FILL_SHAPES", "OperatorOptions"]
 
 
-FILL_SHAPES = "ISOPARAM"  # the Pack Shape that is isoparam's own packer (:mod:`.solver.layout.packing`)
+FILL_SHAPES = "ISOPARAM"  # the Pack Shape that is isoparam's own packer (:mod:`~isoparam_addon.solver.layout.packing`)
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,6 @@
 """The operator's words: errors in mesh terms with a hint at what to do, and the solver's
-warnings sorted into what the report says (warnings, notes) and what goes to the debug log."""
+warnings sorted into what the report says (warnings, notes) and what goes to the debug
+log."""
 
 from __future__ import annotations
 
@@ -7,10 +8,12 @@ import numpy as np
 
 from ..solver import ErrorKind, InvalidMeshError
 from ..solver.errors import counted, offenders
+from ..solver.layout.uv_space import FAR_UV
 from ..solver.report import FOUR_STEP_KINDS, WarningKind, solver_names
-from . import mesh_io
+from .selection import Selection
 
 __all__ = [
+    "NOT_PACKED_FAR",
     "NOT_MANIFOLD_ERRORS",
     "OVERLAP_ERRORS",
     "OVERLAP_WARNINGS",
@@ -32,7 +35,7 @@ _HINTS = {
 }
 
 
-def mesh_names(sel: mesh_io.Selection):
+def mesh_names(sel: Selection):
     """Names for the solver's elements as Blender numbers them: a triangle of the selection
     is the mesh face it comes from, a row of its vertices a mesh vertex."""
 
@@ -49,14 +52,14 @@ def mesh_names(sel: mesh_io.Selection):
     return names
 
 
-def describe(err: InvalidMeshError, sel: mesh_io.Selection) -> str:
+def describe(err: InvalidMeshError, sel: Selection) -> str:
     """The solver's error in mesh terms (its indices are rows of the selection), and a hint
     at what to do, prefixed with the mesh's name."""
     text, hint = overlap_words(err, sel)
     return f"'{sel.name}': {text}" + (f". {hint}" if hint else "")
 
 
-def overlap_words(err: InvalidMeshError, sel: mesh_io.Selection) -> tuple[str, str]:
+def overlap_words(err: InvalidMeshError, sel: Selection) -> tuple[str, str]:
     """The error's sentence in mesh terms and a hint; for triangles of Blender's
     triangulation that overlap (not faces of the mesh), the two faces they come from."""
     text = err.worded(mesh_names(sel))
@@ -101,7 +104,7 @@ def overlap_words(err: InvalidMeshError, sel: mesh_io.Selection) -> tuple[str, s
     return text, hint
 
 
-def _faces_across(sel: mesh_io.Selection, edge) -> tuple[int, int, bool] | None:
+def _faces_across(sel: Selection, edge) -> tuple[int, int, bool] | None:
     """For a vertex pair ``edge`` of the selection that is a diagonal inside a mesh face
     (a quad or n-gon split there) and a side or a diagonal of another: those two faces,
     and whether it is a diagonal of both."""
@@ -119,7 +122,7 @@ def _faces_across(sel: mesh_io.Selection, edge) -> tuple[int, int, bool] | None:
     return None
 
 
-def _overlapping_faces(sel: mesh_io.Selection, t: int) -> tuple[int, int] | None:
+def _overlapping_faces(sel: Selection, t: int) -> tuple[int, int] | None:
     """The mesh faces of triangle ``t`` and of the earlier triangle with the same vertices,
     when they are different faces that are not the same vertices twice."""
     key = np.sort(sel.F, axis=1)
@@ -139,11 +142,14 @@ OVERLAP_ERRORS = frozenset({ErrorKind.DUPLICATE_FACE, ErrorKind.NON_MANIFOLD_EDG
 NOT_MANIFOLD_ERRORS = OVERLAP_ERRORS | {ErrorKind.NON_MANIFOLD_VERTEX}  # what the solver splits when not strict
 
 
+# why Blender's packer is not run: it makes NaN of such UVs, or crashes
+NOT_PACKED_FAR = f"not packed: UVs beyond {FAR_UV:.0e} or not finite (far pins, world scale, or a kept corner)"
+
 # how the solver says it split them
 OVERLAP_WARNINGS = frozenset({WarningKind.DUPLICATE_FACES, WarningKind.NON_MANIFOLD_EDGES})
 
 
-def sorted_words(res, sel: mesh_io.Selection, refined: bool) -> tuple[list[str], list[str], list[str]]:
+def sorted_words(res, sel: Selection, refined: bool) -> tuple[list[str], list[str], list[str]]:
     """The solver's warnings as the report says them, mesh faces and vertices named as
     Blender numbers them: warnings (what may need the artist), notes (what the unwrap did:
     charts, cuts) and details (what its four steps met: debug log only, or, without
