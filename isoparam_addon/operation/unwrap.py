@@ -67,7 +67,7 @@ class Input:
 class Solved:
     """One mesh solved and placed in UV space, with what the report says about it."""
 
-
+    obj: Any  # (as its Input's)
     sel: Selection
     corner_uv: np.ndarray  # (t, 3, 2) per triangle corner
     held: np.ndarray  # (t, 3) bool: corners kept where they were (pins, locked)
