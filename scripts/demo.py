@@ -61,7 +61,7 @@ SPOT_ORDER = {"isoparam": "Isometric Unwrap", "SMART_UV": "Smart UV Project", "C
 
 def scaled_residual_variance(V, F, cuv) -> float:
     """The paper's residual variance after the best global scale (Blender packs into [0, 1])."""
-    l3, l2 = metrics.edge_lengths(V, F, cuv)
+    l3, l2 = metrics.uv_edge_lengths(V, F, cuv)
     s = float((l2 * l3).sum() / max((l2 * l2).sum(), 1e-300))
     return float(np.var(s * l2 - l3))
 
@@ -176,8 +176,8 @@ def _spot(out: Path, args) -> list[str]:
         label = metrics.uv_islands(Ft, cuv)
         per = metrics.per_island(V, Ft, cuv, label)
         seams = seams_of_islands(ob)
-        l3, _ = metrics.edge_lengths(V, Ft, cuv)
-        every = metrics.edge_lengths(V, Ft, np.zeros_like(cuv))[0].sum()
+        l3, _ = metrics.uv_edge_lengths(V, Ft, cuv)
+        every = metrics.uv_edge_lengths(V, Ft, np.zeros_like(cuv))[0].sum()
         failed = per.n_islands == len(Ft)  # every face alone: Unwrap failed (on a closed mesh)
         layouts[title] = (Ft, cuv, per, failed)
         rows.append(

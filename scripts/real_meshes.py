@@ -67,8 +67,8 @@ def measure(V, Ft, cuv) -> dict:
     per = metrics.per_island(V, Ft, cuv, label)
     over = metrics.self_overlaps(V, Ft, cuv, label)
     uv_area = float(np.abs(0.5 * np.cross(cuv[:, 1] - cuv[:, 0], cuv[:, 2] - cuv[:, 0])).sum())
-    l3, _ = metrics.edge_lengths(V, Ft, cuv)
-    every = metrics.edge_lengths(V, Ft, np.zeros((len(Ft), 3, 2)))[0].sum()  # each edge once
+    l3, _ = metrics.uv_edge_lengths(V, Ft, cuv)
+    every = metrics.uv_edge_lengths(V, Ft, np.zeros((len(Ft), 3, 2)))[0].sum()  # each edge once
     return dict(
         islands=int(label.max()) + 1,
         sd=per.mean_symmetric_dirichlet,

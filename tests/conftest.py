@@ -15,9 +15,9 @@ def procrustes_error(A: np.ndarray, B: np.ndarray) -> float:
 
 def edge_length_error(V, F, uv) -> float:
     """Relative RMS difference of 2D and 3D edge lengths, no rescaling."""
-    from isoparam_addon.solver.metrics import edge_lengths
+    from isoparam_addon.solver.metrics import uv_edge_lengths
 
-    l3, l2 = edge_lengths(V, F, uv)
+    l3, l2 = uv_edge_lengths(V, F, uv)
     return float(np.sqrt(np.mean(((l2 - l3) / l3) ** 2)))
 
 

@@ -20,8 +20,8 @@ CUTS = OPENED_KINDS | {WarningKind.CUT_APART}  # every warning that says an isla
 
 def _seam_share(V, F, corner_uv) -> float:
     """3D length of the edges whose two sides have different UVs, over all edges' length."""
-    split, _ = metrics.edge_lengths(V, F, corner_uv)
-    whole, _ = metrics.edge_lengths(V, F, np.zeros_like(corner_uv))  # every edge once
+    split, _ = metrics.uv_edge_lengths(V, F, corner_uv)
+    whole, _ = metrics.uv_edge_lengths(V, F, np.zeros_like(corner_uv))  # every edge once
     return float((split.sum() - whole.sum()) / whole.sum())
 
 

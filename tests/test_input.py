@@ -142,7 +142,7 @@ def test_what_is_not_a_manifold_is_split_as_blender_does_and_warned():
     assert kinds[WarningKind.BOWTIES].count == 1 and kinds[WarningKind.BOWTIES].first == (3,)
     # each face on its own: the three around the edge, the repeated one, the bow-tie's wing
     assert r.n_islands == 5 and np.isfinite(r.corner_uv).all() and not r.flipped.any()
-    l3, l2 = metrics.edge_lengths(V, F, r.corner_uv)
+    l3, l2 = metrics.uv_edge_lengths(V, F, r.corner_uv)
     np.testing.assert_allclose(l2, l3, rtol=1e-12)
 
 

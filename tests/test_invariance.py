@@ -23,7 +23,7 @@ settings.load_profile("isoparam")
 
 
 def uv_edges(V, F, uv):
-    return metrics.edge_lengths(V, F, uv)[1]
+    return metrics.uv_edge_lengths(V, F, uv)[1]
 
 
 def rotation(q):

@@ -30,7 +30,7 @@ def test_uniform_scale_is_normalised_where_documented(flat):
     assert d.edge_rms < 1e-14 and d.stretch_l2 == pytest.approx(1)
     assert d.symmetric_dirichlet == pytest.approx(4) and d.area_distortion < 1e-12
     # the paper's residual variance is in mesh units: it sees the scale
-    l3, _ = metrics.edge_lengths(V, F, U)
+    l3, _ = metrics.uv_edge_lengths(V, F, U)
     assert d.residual_variance == pytest.approx(np.var(2 * l3))
 
 
@@ -64,10 +64,10 @@ def test_flips_count_folded_and_collapsed_faces():
 def test_seam_edges_count_once_per_side():
     V, F, _ = ex.s_surface(6, 3)
     cuv = V[F][:, :, :2].copy()
-    l3, l2 = metrics.edge_lengths(V, F, cuv)
+    l3, l2 = metrics.uv_edge_lengths(V, F, cuv)
     assert len(l3) == 5 * 3 + 6 * 2 + 5 * 2  # rows, columns, diagonals: every edge once
     cuv[0] += 10.0  # detach face 0: its interior edges now count once per side
-    l3b, _ = metrics.edge_lengths(V, F, cuv)
+    l3b, _ = metrics.uv_edge_lengths(V, F, cuv)
     assert len(l3b) > len(l3)
 
 

@@ -135,7 +135,7 @@ def test_inconsistent_face_orientation_is_repaired():
     r1, r2 = parametrize(V, F), parametrize(V, F2)
     assert r2.n_islands == 1 and not r2.warnings
     np.testing.assert_allclose(
-        metrics.edge_lengths(V, F2, r2.corner_uv)[1], metrics.edge_lengths(V, F2, r1.uv[F2])[1], rtol=1e-9
+        metrics.uv_edge_lengths(V, F2, r2.corner_uv)[1], metrics.uv_edge_lengths(V, F2, r1.uv[F2])[1], rtol=1e-9
     )
     # the majority orientation decides which way the layout faces
     topo = build_topology(V, F2)[2]
@@ -155,7 +155,7 @@ def test_bow_ties_can_be_split_instead_of_rejected():
     r = parametrize(V, F, split_nonmanifold=True)
     assert r.n_islands == 2
     assert np.isfinite(r.corner_uv).all()
-    d = metrics.edge_lengths(V, F, r.corner_uv)
+    d = metrics.uv_edge_lengths(V, F, r.corner_uv)
     np.testing.assert_allclose(d[1], d[0], rtol=1e-12)
 
 

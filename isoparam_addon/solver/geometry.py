@@ -15,6 +15,10 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = [
+    "dirichlet_parts",
+    "Frames",
+    "frames_of",
+    "gradient_coefficients",
     "det2",
     "NEXT",
     "TINY",
@@ -78,6 +82,16 @@ def det2(a, b, c, d):
     return a * d - b * c
 
 
+def dirichlet_parts(a, b, c, d):
+    """The two parts of the symmetric Dirichlet energy density of 2x2 Jacobians
+    ``[[a, b], [c, d]]`` (Smith & Schaefer 2015), and their determinant:
+    ``(||J||_F^2, ||J^-1||_F^2, det J)``, with ``||J^-1||_F^2 = ||J||_F^2 / det^2`` in 2D
+    (inf where det is 0). A uniform scale s of the map scales them by s^2 and 1 / s^2."""
+    det = det2(a, b, c, d)
+    fro = a * a + b * b + c * c + d * d
+    return fro, fro / (det * det), det
+
+
 def signed_double_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Twice the signed area of every triangle of a layout, (m,), positive counter-clockwise."""
     u, v = np.ascontiguousarray(uv[:, 0]), np.ascontiguousarray(uv[:, 1])
@@ -116,11 +130,10 @@ class Triangles(NamedTuple):
 
     @property
     def collapsed(self) -> np.ndarray:
-        """Faces with no area to speak of: their height is below ``COLLAPSED`` of their
-        longer side from the first corner (a face whose corners sit on one line or one
-        point has no orientation, so it cannot fold; the refinement gives it a stand-in)."""
-        side = np.maximum(self.l1, self.l2)
-        return self.cross <= COLLAPSED * side * side
+        """Faces with no area to speak of (:attr:`Frames.flat`): a face whose corners sit
+        on one line or one point has no orientation, so it cannot fold; the refinement
+        gives it a stand-in."""
+        return frames_of(self).flat
 
 
 def triangles(X: np.ndarray, faces: np.ndarray) -> Triangles:
@@ -141,6 +154,47 @@ def triangles(X: np.ndarray, faces: np.ndarray) -> Triangles:
         dot=e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2],
         cross=np.sqrt(cx * cx + cy * cy + cz * cz),
     )
+
+
+class Frames(NamedTuple):
+    """Each face in its own plane, the frame the Jacobians of maps from it are taken in:
+    corners (0, 0), (x1, 0), (x2, y2), y2 > 0. One rule for faces with no area to speak
+    of (``flat``: a height below ``COLLAPSED`` of the longer side from the first corner):
+    they keep a stand-in height of that much, and a face collapsed to a point a stand-in
+    size from the mesh, so that a gradient on them is large but finite. All (m,)."""
+
+    x1: np.ndarray
+    x2: np.ndarray
+    y2: np.ndarray
+    flat: np.ndarray  # bool
+
+    @property
+    def area(self) -> np.ndarray:
+        """The area (the stand-in's on flat faces)."""
+        return 0.5 * self.x1 * self.y2
+
+
+def frames_of(tri: Triangles) -> Frames:
+    """The :class:`Frames` of triangles."""
+    scale = np.maximum(tri.l1, tri.l2)
+    size = float(scale.max(initial=0.0))
+    scale = np.maximum(scale, 1e-9 * (size if size > 0 else 1.0))
+    floor = COLLAPSED * scale
+    x1 = np.maximum(tri.l1, floor)
+    x2 = tri.dot / x1
+    y2 = tri.cross / x1
+    return Frames(x1, x2, np.maximum(y2, floor), y2 < floor)
+
+
+def gradient_coefficients(frames: Frames) -> tuple[np.ndarray, np.ndarray]:
+    """Per face the weights (m, 3) of its corners' values in the gradient of the linear
+    function over it: ``grad f = (dx . f, dy . f)`` for values ``f`` (m, 3) at the corners,
+    so the Jacobian of a map ``(u, v)`` is ``[[dx . u, dy . u], [dx . v, dy . v]]``."""
+    x1, x2, y2 = frames.x1, frames.x2, frames.y2
+    zero = np.zeros(len(x1))
+    dx = np.stack([-1.0 / x1, 1.0 / x1, zero], axis=1)
+    dy = np.stack([(x2 / x1 - 1.0) / y2, -x2 / (x1 * y2), 1.0 / y2], axis=1)
+    return dx, dy
 
 
 def face_areas(X: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -50,13 +50,23 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .geometry import TINY, conformal_parts, corner_signed_areas, next_corner, triangle_angles, triangles
+from .geometry import (
+    conformal_parts,
+    corner_signed_areas,
+    dirichlet_parts,
+    edge_lengths,
+    frames_of,
+    gradient_coefficients,
+    next_corner,
+    triangle_angles,
+    triangles,
+)
 from .mesh.halfedges import HalfEdges, orientation, unit_of
 from .mesh.islands import Islands, Labelled
 
 __all__ = [
     "corner_uvs",
-    "edge_lengths",
+    "uv_edge_lengths",
     "singular_values",
     "residual_variance",
     "one_minus_r2",
@@ -88,8 +98,9 @@ def corner_uvs(F: np.ndarray, uv: np.ndarray) -> np.ndarray:
     return uv[F]
 
 
-def edge_lengths(V, F, uv):
-    """3D and 2D length of every UV edge: ``(l (e,), d (e,))``."""
+def uv_edge_lengths(V, F, uv):
+    """3D and 2D length of every UV edge, once per edge of the UV map (twice across a
+    seam): ``(l (e,), d (e,))``."""
     F = np.asarray(F, dtype=np.int64)
     cuv = corner_uvs(F, uv)
     he = HalfEdges(F, len(V))
@@ -107,21 +118,19 @@ def edge_lengths(V, F, uv):
     tb = np.where(same_dir, tn, t)
     agree = paired & np.all(quv[ta] == quv[h], axis=1) & np.all(quv[tb] == quv[nxt], axis=1)
     keep |= paired & (~agree | (h < t))
-    a, b = flat[h[keep]], flat[nxt[keep]]
-    l3 = np.linalg.norm(np.asarray(V, dtype=np.float64)[a] - np.asarray(V, dtype=np.float64)[b], axis=1)
-    l2 = np.linalg.norm(quv[h[keep]] - quv[nxt[keep]], axis=1)
-    return l3, l2
+    corners = np.stack([h[keep], nxt[keep]], axis=1)
+    return edge_lengths(np.asarray(V, dtype=np.float64), flat[corners]), edge_lengths(quv, corners)
 
 
 def residual_variance(V, F, uv) -> float:
     """Variance of the 2D-minus-3D edge length (the paper's measure), mesh units."""
-    l3, l2 = edge_lengths(V, F, uv)
+    l3, l2 = uv_edge_lengths(V, F, uv)
     return float(np.var(l2 - l3))
 
 
 def one_minus_r2(V, F, uv) -> float:
     """Isomap-style ``1 - R^2`` between 2D and 3D edge lengths."""
-    l3, l2 = edge_lengths(V, F, uv)
+    l3, l2 = uv_edge_lengths(V, F, uv)
     if np.std(l2) == 0 or np.std(l3) == 0:
         return 1.0
     r = np.corrcoef(l2, l3)[0, 1]
@@ -130,7 +139,7 @@ def one_minus_r2(V, F, uv) -> float:
 
 def edge_rms(V, F, uv) -> float:
     """Relative RMS edge-length error at the best global scale."""
-    l3, l2 = edge_lengths(V, F, uv)
+    l3, l2 = uv_edge_lengths(V, F, uv)
     ok = l3 > 0
     r = l2[ok] / l3[ok]
     rr = float((r * r).sum())
@@ -140,20 +149,13 @@ def edge_rms(V, F, uv) -> float:
 
 def _frames(V, F, cuv):
     """3D face areas, which faces have any (m,) bool, and the 2x2 Jacobians ``(a, b, c, d)``
-    (each (m,)) of the map from each face to UV: ``J = [[a, b], [c, d]]``."""
-    tri = triangles(np.asarray(V, dtype=np.float64), F)
-    ok = (tri.cross > 1e-14 * np.maximum(tri.l1, TINY) ** 2) & (tri.l1 > 0)
-    x1 = np.where(ok, tri.l1, 1.0)
-    x2 = np.where(ok, tri.dot / x1, 0.0)
-    y2 = np.where(ok, tri.cross / x1, 1.0)
-    # J [x1 x2; 0 y2] = [q1 q2], q1 and q2 the UV edges from corner 0
-    r = x2 / x1
-    J = []
-    for c in range(2):  # u, v
-        base = cuv[:, 0, c]
-        q1, q2 = cuv[:, 1, c] - base, cuv[:, 2, c] - base
-        J += [q1 / x1, (q2 - q1 * r) / y2]
-    return tri.area, ok, tuple(J)
+    (each (m,)) of the map from each face to UV, ``J = [[a, b], [c, d]]``, in the frames
+    and with the gradient the refinement descends with (:func:`.geometry.frames_of`)."""
+    frames = frames_of(triangles(np.asarray(V, dtype=np.float64), F))
+    dx, dy = gradient_coefficients(frames)
+    u, v = cuv[..., 0], cuv[..., 1]
+    J = ((dx * u).sum(axis=1), (dy * u).sum(axis=1), (dx * v).sum(axis=1), (dy * v).sum(axis=1))
+    return frames.area, ~frames.flat, J
 
 
 def singular_values(V, F, uv):
@@ -163,11 +165,27 @@ def singular_values(V, F, uv):
     faces get sigma = 1.
     """
     F = np.asarray(F, dtype=np.int64)
-    area, ok, (a, b, c, d) = _frames(V, F, corner_uvs(F, uv))
-    q, r = conformal_parts(a, b, c, d)
+    area, ok, J = _frames(V, F, corner_uvs(F, uv))
+    return _singular_values(J, ok), area, ok
+
+
+def _singular_values(J, ok: np.ndarray) -> np.ndarray:
+    """``sigma1 >= sigma2`` (m, 2) of the Jacobians ``J``; 1 where not ``ok``."""
+    q, r = conformal_parts(*J)
     sig = np.stack([q + r, np.abs(q - r)], axis=1)
     sig[~ok] = 1.0
-    return sig, area, ok
+    return sig
+
+
+def _inverse_stretches(sig: np.ndarray):
+    """Per face, from the singular values (m, 2) of its 3D-to-UV map: the largest and
+    smallest stretch of the UV-to-3D map, ``Gamma = 1 / sigma2`` and ``gamma = 1 / sigma1``
+    (Sander et al. 2001; inf for a collapsed UV triangle), and the larger of the map's own
+    stretch and squeeze, ``max(sigma1, 1 / sigma2)``."""
+    with np.errstate(divide="ignore", over="ignore"):
+        big = np.where(sig[:, 1] > 0, 1.0 / sig[:, 1], np.inf)
+        small = 1.0 / sig[:, 0]
+    return big, small, np.maximum(sig[:, 0], big)
 
 
 def _area_scale(V, F, uv) -> float:
@@ -181,10 +199,7 @@ def _area_scale(V, F, uv) -> float:
 def stretch(V, F, uv) -> tuple[float, float]:
     """Sander's (L2, Linf) stretch of the UV-to-3D map at equal total area."""
     sig, area, ok = singular_values(V, F, uv)
-    sig = sig * _area_scale(V, F, uv)
-    with np.errstate(divide="ignore"):
-        big = np.where(sig[:, 1] > 0, 1.0 / sig[:, 1], np.inf)  # Gamma of the inverse map
-        small = 1.0 / sig[:, 0]
+    big, small, _ = _inverse_stretches(sig * _area_scale(V, F, uv))
     w = area * ok
     l2 = np.sqrt((0.5 * (big**2 + small**2) * w).sum() / w.sum())
     return float(l2), float(big[ok].max(initial=1.0))
@@ -192,10 +207,10 @@ def stretch(V, F, uv) -> tuple[float, float]:
 
 def symmetric_dirichlet(V, F, uv) -> float:
     """Area-weighted symmetric Dirichlet energy at its optimal global scale (>= 4): the
-    whole layout as one island (:func:`_island_energy`)."""
+    whole layout as one island (:func:`_at_best_scale`)."""
     F = np.asarray(F, dtype=np.int64)
-    sig, area, ok = singular_values(V, F, uv)
-    sd, _ = _island_energy(sig, area * ok, Labelled(np.zeros(len(F), dtype=np.int64), 1))
+    area, ok, J = _frames(V, F, corner_uvs(F, uv))
+    sd, _ = _at_best_scale(J, area * ok, Labelled(np.zeros(len(F), dtype=np.int64), 1))
     return float(sd[0]) if np.isfinite(sd[0]) else float("inf")
 
 
@@ -287,7 +302,7 @@ def distortion(V, F, uv, face_island=None) -> Distortion:
     """Every measure of this module (see the module docstring)."""
     F = np.asarray(F, dtype=np.int64)
     cuv = corner_uvs(F, uv)
-    l3, l2 = edge_lengths(V, F, cuv)
+    l3, l2 = uv_edge_lengths(V, F, cuv)
     sig, area, ok = singular_values(V, F, cuv)
     w = area * ok
     k = _area_scale(V, F, cuv)
@@ -351,17 +366,18 @@ def island_energy(V, F, uv, face_island: np.ndarray, k: int) -> tuple[np.ndarray
     (as :func:`per_island` has it, nan without area), and its 3D area; the part of
     :func:`per_island` a caller that only weighs distortion needs."""
     F = np.asarray(F, dtype=np.int64)
-    sig, area, ok = singular_values(V, F, corner_uvs(F, uv))
-    return _island_energy(sig, area * ok, Islands.labelled(np.asarray(face_island, dtype=np.int64), k))
+    area, ok, J = _frames(V, F, corner_uvs(F, uv))
+    return _at_best_scale(J, area * ok, Islands.labelled(np.asarray(face_island, dtype=np.int64), k))
 
 
-def _island_energy(sig: np.ndarray, w: np.ndarray, groups: Labelled) -> tuple[np.ndarray, np.ndarray]:
-    """Per island: symmetric Dirichlet at its best scale from singular values ``sig``
-    (m, 2) and face weights (3D areas) ``w`` (m,), and the islands' weights."""
+def _at_best_scale(J, w: np.ndarray, groups: Labelled) -> tuple[np.ndarray, np.ndarray]:
+    """Per island: symmetric Dirichlet at its best scale from the Jacobians ``J`` and face
+    weights (3D areas) ``w`` (m,), and the islands' weights."""
     A3 = groups.sum(w)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        pos = groups.sum((sig**2).sum(axis=1) * w)
-        neg = groups.sum(np.where(w > 0, (1.0 / sig**2).sum(axis=1) * w, 0.0))
+        fro, inv, _ = dirichlet_parts(*J)
+        pos = groups.sum(np.where(w > 0, fro * w, 0.0))
+        neg = groups.sum(np.where(w > 0, inv * w, 0.0))
         sd = np.where(A3 > 0, 2.0 * np.sqrt(pos * neg) / A3, np.nan)  # min over s of (s2 pos + neg / s2) / A3
     return sd, A3
 
@@ -374,19 +390,17 @@ def per_island(V, F, uv, face_island=None) -> IslandDistortion:
     label = uv_islands(F, cuv) if face_island is None else np.asarray(face_island, dtype=np.int64)
     k = int(label.max()) + 1 if len(label) else 0
     groups = Islands.labelled(label, k)
-    sig, area, ok = singular_values(V, F, cuv)
+    area, ok, J = _frames(V, F, cuv)
+    sig = _singular_values(J, ok)
     w = area * ok
     A2 = groups.sum(np.abs(corner_signed_areas(cuv)) * ok)
-    sd, A3 = _island_energy(sig, w, groups)
+    sd, A3 = _at_best_scale(J, w, groups)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         scale = np.where(A2 > 0, np.sqrt(A3 / A2), np.inf)  # UV -> 3D area
         s = groups.expand(np.where(np.isfinite(scale), scale, 1.0)) * np.ones(len(F))
-        small = sig[:, 1] * s  # the singular values of the scaled map
-        big_inv = np.where(small > 0, 1.0 / small, np.inf)  # Gamma of the inverse map
-        small_inv = 1.0 / (sig[:, 0] * s)
+        big_inv, small_inv, worse = _inverse_stretches(sig * s[:, None])  # of the scaled map
         l2 = np.sqrt(groups.sum(0.5 * (big_inv**2 + small_inv**2) * w) / A3)
         linf = groups.max(np.where(ok, big_inv, -np.inf))
-        worse = np.maximum(big_inv, np.where(small_inv > 0, 1.0 / small_inv, np.inf))  # max(sigma1, 1/sigma2)
         stretch = groups.sum(np.where(w > 0, worse * w, 0.0)) / A3
     flips = np.bincount(label[folded(F, cuv, label) & ~_collapsed(V, F)], minlength=k)
     has = A3 > 0
@@ -424,9 +438,8 @@ def face_stretch(V, F, corner_uv) -> tuple[np.ndarray, StretchSummary]:
     """
     sig, area, ok = singular_values(V, F, corner_uv)
     a2 = np.abs(corner_signed_areas(corner_uv)).sum()
-    sig = sig * (np.sqrt(area.sum() / a2) if a2 > 0 else 1.0)
-    with np.errstate(divide="ignore"):
-        d = np.where(ok, np.maximum(sig[:, 0], np.where(sig[:, 1] > 0, 1.0 / sig[:, 1], np.inf)), 1.0)
+    _, _, worse = _inverse_stretches(sig * (np.sqrt(area.sum() / a2) if a2 > 0 else 1.0))
+    d = np.where(ok, worse, 1.0)
     finite = np.isfinite(d)
     w = np.where(finite & ok, area, 0.0)
     total = float(w.sum())

@@ -656,7 +656,7 @@ def test_true_world_scale_follows_the_object_transform(scene):
     assert unwrap(world_scale=True, pack=False) == {"FINISHED"}
     object_mode()
     Vb, Fb, cuv = triangle_uvs(ob)
-    l3, l2 = metrics.edge_lengths(2.0 * Vb, Fb, cuv)
+    l3, l2 = metrics.uv_edge_lengths(2.0 * Vb, Fb, cuv)
     np.testing.assert_allclose(l2, l3, rtol=1e-5)
 
 
@@ -673,7 +673,7 @@ def test_true_world_scale_keeps_the_digits_of_a_small_object_far_from_the_origin
     object_mode()
     Vb, Fb, cuv = triangle_uvs(ob)
     assert metrics.edge_rms(1e-12 * Vb, Fb, cuv) < 1e-5  # (edge_rms fits the scale)
-    l3, l2 = metrics.edge_lengths(1e-12 * Vb, Fb, cuv)
+    l3, l2 = metrics.uv_edge_lengths(1e-12 * Vb, Fb, cuv)
     assert np.median(l2 / l3) == pytest.approx(1.0, rel=1e-5)  # world units: 1e-12 of the mesh's
 
 

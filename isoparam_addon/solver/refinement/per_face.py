@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..geometry import TINY, conformal_parts, det2, triangles
+from ..geometry import TINY, conformal_parts, det2, dirichlet_parts, frames_of, gradient_coefficients, triangles
 from ..mesh.islands import Labelled
 
 __all__ = ["FaceFrames", "island_energy", "max_step", "slim_weights", "symmetric_dirichlet"]
@@ -18,8 +18,10 @@ __all__ = ["FaceFrames", "island_energy", "max_step", "slim_weights", "symmetric
 class FaceFrames:
     """Per-face reference triangles and the gradient operators of piecewise-linear maps.
 
-    Face f maps to its own plane as (0, 0), (x1, 0), (x2, y2), y2 > 0. For a function
-    with values (f0, f1, f2) at the corners, ``grad f = (Dx f, Dy f)``.
+    Face f maps to its own plane as (0, 0), (x1, 0), (x2, y2), y2 > 0 (its
+    :class:`~isoparam_addon.solver.geometry.Frames`). For a function with values
+    (f0, f1, f2) at the corners, ``grad f = (Dx f, Dy f)``: the gradient coefficients as
+    sparse operators over the vertices.
 
     Attributes
     ----------
@@ -33,21 +35,12 @@ class FaceFrames:
     def __init__(self, X: np.ndarray, faces: np.ndarray):
         m, n = len(faces), len(X)
         self.faces = faces
-        tri = triangles(X, faces)
-        scale = np.maximum(tri.l1, tri.l2)
-        # a face collapsed to a point takes a stand-in size from the mesh (a zero area
-        # would make its gradient 0/0, the whole island's energy NaN)
-        size = float(scale.max(initial=0.0))
-        scale = np.maximum(scale, 1e-9 * (size if size > 0 else 1.0))
-        floor = 1e-6 * scale
-        x1 = np.maximum(tri.l1, floor)
-        x2 = tri.dot / x1
-        y2 = tri.cross / x1
-        self.degenerate = y2 < floor
-        y2 = np.maximum(y2, floor)
-        self.area = 0.5 * x1 * y2
-        dx = np.stack([-1.0 / x1, 1.0 / x1, np.zeros(m)], axis=1)
-        dy = np.stack([(x2 / x1 - 1.0) / y2, -x2 / (x1 * y2), 1.0 / y2], axis=1)
+        frames = frames_of(triangles(X, faces))
+        # (a face collapsed to a point takes a stand-in size: a zero area would make its
+        # gradient 0/0, the whole island's energy NaN)
+        self.degenerate = frames.flat
+        self.area = frames.area
+        dx, dy = gradient_coefficients(frames)
         rows = np.repeat(np.arange(m), 3)
         idx = faces.ravel()
         self.Dx = sp.csr_matrix((dx.ravel(), (rows, idx)), shape=(m, n))
@@ -68,9 +61,7 @@ class FaceFrames:
 
 def symmetric_dirichlet(a, b, c, d, area):
     """Symmetric Dirichlet per face and its derivative with respect to J."""
-    det = det2(a, b, c, d)
-    fro = a * a + b * b + c * c + d * d
-    inv = fro / (det * det)  # ||J^{-1}||_F^2 = ||J||_F^2 / det^2 in 2D
+    fro, inv, det = dirichlet_parts(a, b, c, d)
     e = area * (fro + inv)
     # d/dJ ||J^{-1}||^2 = (2 / det^2) J - (2 ||J||^2 / det^3) cof(J), cof(J) = [[d, -c], [-b, a]]
     k1 = 2.0 * area * (1.0 + 1.0 / (det * det))
