@@ -607,40 +607,60 @@ def _done(paths, targets) -> list[bool]:
 
 
 def main(argv=None) -> int:
+    """Unwrap the files the command line names (:func:`parse`); the exit status."""
     if argv is None:
         argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
-    real_stdout = sys.stdout
+    real_stdout = _stdout_for(argv)
     try:
-        if "--json" in argv:  # Blender's log (C printf and Python prints) to stderr, JSON to the real stdout
-            real_stdout = os.fdopen(os.dup(1), "w")
-            os.dup2(2, 1)
-            sys.stdout = sys.stderr
-        import bpy
-
-        _ensure_addon()
-        args, operator = parse(argv)
-        if (args.jobs > 1 or args.scheduler) and bpy.app.binary_path:
-            raise UsageError(
-                "--jobs and --scheduler run Blender as a Python module (pip install bpy), not inside a Blender binary"
-            )
-        if args.jobs > 1 and args.scheduler:
-            raise UsageError("give --jobs or --scheduler, not both")
-        if args.skip_done and args.in_place:
-            raise UsageError("--skip-done cannot tell a finished file when the output is the input (--in-place)")
-        paths: list[Path | None] = list(args.inputs)
-        if not paths:
-            if not bpy.data.filepath:
-                raise UsageError("no input files, and no .blend is open")
-            if args.scheduler:
-                raise UsageError("--scheduler unwraps files given as inputs, not the open .blend")
-            paths = [None]  # the file Blender opened
-        targets = outputs(args, paths)
-        if args.scheduler:  # (before any work)
-            _local_workers(args.scheduler)
-            _dask()
+        args, operator, paths, targets = _set_up(argv)
+        emit = _printer(args, real_stdout)
+        report = _run_all(argv, args, operator, paths, targets, emit)
     except UsageError as exc:
         print(f"batch_unwrap: {exc}", file=sys.stderr)
         return 2
+    return _summarize(args, report)
+
+
+def _stdout_for(argv: list[str]):
+    """Where reports go: stdout, or with ``--json`` the real stdout, Blender's log sent to stderr."""
+    if "--json" not in argv:
+        return sys.stdout
+    real_stdout = os.fdopen(os.dup(1), "w")
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
+    return real_stdout
+
+
+def _set_up(argv: list[str]):
+    """Parse and check the arguments: (args, operator options, inputs, outputs), or a UsageError."""
+    import bpy
+
+    _ensure_addon()
+    args, operator = parse(argv)
+    if (args.jobs > 1 or args.scheduler) and bpy.app.binary_path:
+        raise UsageError(
+            "--jobs and --scheduler run Blender as a Python module (pip install bpy), not inside a Blender binary"
+        )
+    if args.jobs > 1 and args.scheduler:
+        raise UsageError("give --jobs or --scheduler, not both")
+    if args.skip_done and args.in_place:
+        raise UsageError("--skip-done cannot tell a finished file when the output is the input (--in-place)")
+    paths: list[Path | None] = list(args.inputs)
+    if not paths:
+        if not bpy.data.filepath:
+            raise UsageError("no input files, and no .blend is open")
+        if args.scheduler:
+            raise UsageError("--scheduler unwraps files given as inputs, not the open .blend")
+        paths = [None]  # the file Blender opened
+    targets = outputs(args, paths)
+    if args.scheduler:  # (before any work)
+        _local_workers(args.scheduler)
+        _dask()
+    return args, operator, paths, targets
+
+
+def _printer(args, real_stdout):
+    """A function that prints one file's report: a JSON line (``--json``) or :func:`describe`'s lines."""
 
     def emit(entry: dict) -> None:
         if args.json:
@@ -650,19 +670,27 @@ def main(argv=None) -> int:
             sys.stderr.write("\r" + " " * 119 + "\r")
             print(describe(entry), flush=True)
 
+    return emit
+
+
+def _left_to_run(args, paths, targets) -> tuple[list[int], list[tuple[int, dict]]]:
+    """The inputs to run (their indices), and the (index, report) of those ``--skip-done`` skips."""
+    if not args.skip_done:
+        return list(range(len(paths))), []
+    done = _done(paths, targets)
+    skipped = [
+        (k, {"file": str(p), "status": "skipped", "output": str(t), "seconds": 0.0})
+        for k, (p, t, d) in enumerate(zip(paths, targets, done))
+        if d
+    ]
+    return [k for k, d in enumerate(done) if not d], skipped
+
+
+def _run_all(argv, args, operator: dict, paths, targets, emit) -> list[dict]:
+    """Unwrap the inputs (cluster, child processes or here); every report, emitted in input order."""
     progress = Progress(len(paths))
     report: list[dict] = []
-    skipped: list[tuple[int, dict]] = []  # (input index, report) of finished files, emitted in their place
-    if args.skip_done:
-        done = _done(paths, targets)
-        skipped = [
-            (k, {"file": str(p), "status": "skipped", "output": str(t), "seconds": 0.0})
-            for k, (p, t, d) in enumerate(zip(paths, targets, done))
-            if d
-        ]
-        left = [k for k, d in enumerate(done) if not d]
-    else:
-        left = list(range(len(paths)))
+    left, skipped = _left_to_run(args, paths, targets)  # skipped: emitted in their place
     paths, targets = [paths[k] for k in left], [targets[k] for k in left]
 
     def emit_next(entry: dict | None) -> None:
@@ -678,23 +706,34 @@ def main(argv=None) -> int:
             report.append(entry)
 
     if args.scheduler and paths:
-        try:
-            _on_cluster(argv, args, paths, targets, progress, emit_next)
-        except UsageError as exc:
-            print(f"batch_unwrap: {exc}", file=sys.stderr)
-            return 2
+        _on_cluster(argv, args, paths, targets, progress, emit_next)
     elif args.jobs > 1 and len(paths) > 1:
         _in_children(argv, args, [p for p in paths if p is not None], targets, progress, emit_next)
     else:
-        for path, target in zip(paths, targets):  # one file at a time
-            name = path.name if path else Path(bpy.data.filepath).name
-            progress.show(name, "unwrapping")
-            entry = run_file(args, operator, path, target)
-            progress.done += 1
-            progress.show(name, entry["status"])
-            emit_next(entry)
+        _one_at_a_time(args, operator, paths, targets, progress, emit_next)
     emit_next(None)
     progress.close()
+    return report
+
+
+def _one_at_a_time(args, operator: dict, paths, targets, progress: Progress, emit) -> list[dict]:
+    """Each file in this process, one after the other (a None path: the open .blend)."""
+    import bpy
+
+    entries = []
+    for path, target in zip(paths, targets):
+        name = path.name if path else Path(bpy.data.filepath).name
+        progress.show(name, "unwrapping")
+        entry = run_file(args, operator, path, target)
+        progress.done += 1
+        progress.show(name, entry["status"])
+        emit(entry)
+        entries.append(entry)
+    return entries
+
+
+def _summarize(args, report: list[dict]) -> int:
+    """Write ``--report`` and say how many files were unwrapped; the exit status."""
     if args.report:
         args.report.write_text(json.dumps(report, indent=1))
     bad = [e for e in report if e["status"] not in ("ok", "skipped")]

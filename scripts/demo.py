@@ -57,6 +57,16 @@ ORDER = [
     if available(m)  # (MINIMUM_STRETCH: Blender 4.3 on)
 ]
 SPOT_ORDER = {"isoparam": "Isometric Unwrap", "SMART_UV": "Smart UV Project", "CONFORMAL": "Unwrap (Conformal)"}
+TABLE_HEAD = [
+    "| mesh | method | time (ms) | residual variance (best scale) | edge RMS | L2 stretch | Linf stretch | flips |",
+    "|---|---|---|---|---|---|---|---|",
+]
+TABLE_NOTE = [
+    "",
+    "Linf is Sander et al.'s worst stretch (the largest singular value of the UV-to-3D map) at the",
+    "layout's best scale; the heat maps' 'worst' is max(sigma1, 1/sigma2) per face at the scale that",
+    "gives the UVs the mesh's area (as Show UV Stretch colours it), so the two differ.",
+]
 
 
 def scaled_residual_variance(V, F, cuv) -> float:
@@ -67,86 +77,120 @@ def scaled_residual_variance(V, F, cuv) -> float:
 
 
 def main(argv=None) -> int:
+    """Unwrap every mesh of MESHES every way of ORDER, then spot; write the table and figures."""
+    args = _parse(argv)
+    out = (ROOT / args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    isoparam_addon.register()
+    lines = list(TABLE_HEAD)
+    for stem, (title, make, elevation) in MESHES.items():
+        V, F = make()
+        layouts, rows = _unwrap_every_way(out, args, stem, title, V, F, elevation)
+        lines += rows
+        _save_layouts(out, stem, title, layouts)
+        _save_stretch(out, stem, title, V, layouts)
+        if not args.no_render:
+            _save_renders(out, stem, title)
+    lines += _spot(out, args)
+    _report(out, lines + TABLE_NOTE)
+    return 0
+
+
+def _parse(argv):
+    """The command line's options."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="out/demo")
     ap.add_argument("--repeat", type=int, default=5, help="timed runs per method")
     ap.add_argument("--samples", type=int, default=16, help="Cycles samples per render")
     ap.add_argument("--no-render", action="store_true")
-    args = ap.parse_args(argv)
-    out = (ROOT / args.out).resolve()
-    out.mkdir(parents=True, exist_ok=True)
-    isoparam_addon.register()
-    lines = [
-        "| mesh | method | time (ms) | residual variance (best scale) | edge RMS | L2 stretch | Linf stretch | flips |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for stem, (title, make, elevation) in MESHES.items():
-        V, F = make()
-        layouts = {}
-        for method in ORDER:
-            bpy.ops.wm.read_homefile(use_empty=True)
-            ob = add_mesh(stem, V, F)
-            edit(ob)
-            METHODS[method]()  # warm-up
-            times = []
-            for _ in range(args.repeat):  # timed runs through the operator
-                t = time.perf_counter()
-                METHODS[method]()
-                times.append(time.perf_counter() - t)
-            bpy.ops.object.mode_set(mode="OBJECT")
-            Ft, cuv = read_uvs(ob)
-            d = metrics.distortion(V, Ft, cuv)
-            folded = np.zeros(len(Ft), dtype=bool)
-            if d.flipped:
-                q1, q2 = cuv[:, 1] - cuv[:, 0], cuv[:, 2] - cuv[:, 0]
-                signed = q1[:, 0] * q2[:, 1] - q1[:, 1] * q2[:, 0]
-                folded = np.sign(signed) != np.sign(np.median(signed))
-            layouts[method] = (Ft, cuv, folded, d)
-            lines.append(
-                f"| {title} | {method} | {1e3 * np.median(times):.1f} | "
-                f"{scaled_residual_variance(V, Ft, cuv):.3e} | {d.edge_rms:.3f} | {d.stretch_l2:.3f} | "
-                f"{d.stretch_linf:.2f} | {d.flipped} |"
-            )
-            if not args.no_render:
-                render(ob, out / f"render_{stem}_{ORDER.index(method)}.png", elevation, args.samples)
-            print(f"{title:45s} {method:16s} done", file=sys.stderr, flush=True)
-        fig, axes = plt.subplots(1, len(ORDER), figsize=(4.2 * len(ORDER), 4.4))
-        for ax, method in zip(axes, ORDER):
-            Ft, cuv, folded, d = layouts[method]
-            draw_layout(ax, Ft, cuv, folded, f"{method}\nedge RMS {d.edge_rms:.3f}, L2 {d.stretch_l2:.2f}")
-        fig.suptitle(title)
-        fig.tight_layout()
-        fig.savefig(out / f"{stem}_layouts.png", dpi=100)
-        plt.close(fig)
-        # the same layouts as stretch heat maps, in the viewport's colours (Show UV Stretch)
-        fig, axes = plt.subplots(1, len(ORDER), figsize=(4.4 * len(ORDER), 4.4))
-        for ax, method in zip(axes, ORDER):
-            Ft, cuv, _, _ = layouts[method]
-            d, (worst, mean, _) = metrics.face_stretch(V, Ft, cuv)
-            rgba = metrics.stretch_colours(d)
-            draw_stretch(ax, Ft, cuv, rgba, f"{method}\nstretch worst {worst:.2f}, mean {mean:.3f}")
-        stretch_key(fig, axes[-1], metrics.stretch_colours)
-        fig.suptitle(f"{title}: stretch per face in UV space")
-        fig.tight_layout()
-        fig.savefig(out / f"{stem}_stretch.png", dpi=100)
-        plt.close(fig)
+    return ap.parse_args(argv)
+
+
+def _unwrap_every_way(out: Path, args, stem: str, title: str, V, F, elevation: float):
+    """One mesh by every method of ORDER: its layouts (Ft, cuv, folded, distortion) by method, and its table rows."""
+    layouts, rows = {}, []
+    for method in ORDER:
+        ob, seconds = _timed_unwrap(stem, V, F, method, args.repeat)
+        Ft, cuv = read_uvs(ob)
+        d = metrics.distortion(V, Ft, cuv)
+        layouts[method] = (Ft, cuv, _folded(cuv, d.flipped), d)
+        rows.append(
+            f"| {title} | {method} | {1e3 * seconds:.1f} | "
+            f"{scaled_residual_variance(V, Ft, cuv):.3e} | {d.edge_rms:.3f} | {d.stretch_l2:.3f} | "
+            f"{d.stretch_linf:.2f} | {d.flipped} |"
+        )
         if not args.no_render:
-            fig, axes = plt.subplots(1, len(ORDER), figsize=(4.2 * len(ORDER), 3.5))
-            for ax, method in zip(axes, ORDER):
-                ax.imshow(plt.imread(out / f"render_{stem}_{ORDER.index(method)}.png"))
-                ax.set_title(method, fontsize=10)
-                ax.axis("off")
-            fig.suptitle(f"{title}: checker texture through each method's UVs (Cycles)")
-            fig.tight_layout()
-            fig.savefig(out / f"{stem}_renders.png", dpi=100)
-            plt.close(fig)
-    lines += _spot(out, args)
-    lines += [
-        "",
-        "Linf is Sander et al.'s worst stretch (the largest singular value of the UV-to-3D map) at the",
-        "layout's best scale; the heat maps' 'worst' is max(sigma1, 1/sigma2) per face at the scale that",
-        "gives the UVs the mesh's area (as Show UV Stretch colours it), so the two differ.",
-    ]
+            render(ob, out / f"render_{stem}_{ORDER.index(method)}.png", elevation, args.samples)
+        print(f"{title:45s} {method:16s} done", file=sys.stderr, flush=True)
+    return layouts, rows
+
+
+def _timed_unwrap(stem: str, V, F, method: str, repeat: int):
+    """The mesh in a fresh scene, unwrapped by ``method``: the object and the median seconds of ``repeat`` runs."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    ob = add_mesh(stem, V, F)
+    edit(ob)
+    METHODS[method]()  # warm-up
+    times = []
+    for _ in range(repeat):  # timed runs through the operator
+        t = time.perf_counter()
+        METHODS[method]()
+        times.append(time.perf_counter() - t)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return ob, np.median(times)
+
+
+def _folded(cuv, flipped: int):
+    """Faces (m,) bool folded against the layout's usual orientation (none when ``flipped`` is 0)."""
+    if not flipped:
+        return np.zeros(len(cuv), dtype=bool)
+    q1, q2 = cuv[:, 1] - cuv[:, 0], cuv[:, 2] - cuv[:, 0]
+    signed = q1[:, 0] * q2[:, 1] - q1[:, 1] * q2[:, 0]
+    return np.sign(signed) != np.sign(np.median(signed))
+
+
+def _save_layouts(out: Path, stem: str, title: str, layouts: dict) -> None:
+    """Write ``<stem>_layouts.png``: the UV layouts side by side, folded triangles in red."""
+    fig, axes = plt.subplots(1, len(ORDER), figsize=(4.2 * len(ORDER), 4.4))
+    for ax, method in zip(axes, ORDER):
+        Ft, cuv, folded, d = layouts[method]
+        draw_layout(ax, Ft, cuv, folded, f"{method}\nedge RMS {d.edge_rms:.3f}, L2 {d.stretch_l2:.2f}")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(out / f"{stem}_layouts.png", dpi=100)
+    plt.close(fig)
+
+
+def _save_stretch(out: Path, stem: str, title: str, V, layouts: dict) -> None:
+    """Write ``<stem>_stretch.png``: the layouts as stretch heat maps, in the viewport's colours (Show UV Stretch)."""
+    fig, axes = plt.subplots(1, len(ORDER), figsize=(4.4 * len(ORDER), 4.4))
+    for ax, method in zip(axes, ORDER):
+        Ft, cuv, _, _ = layouts[method]
+        d, (worst, mean, _) = metrics.face_stretch(V, Ft, cuv)
+        rgba = metrics.stretch_colours(d)
+        draw_stretch(ax, Ft, cuv, rgba, f"{method}\nstretch worst {worst:.2f}, mean {mean:.3f}")
+    stretch_key(fig, axes[-1], metrics.stretch_colours)
+    fig.suptitle(f"{title}: stretch per face in UV space")
+    fig.tight_layout()
+    fig.savefig(out / f"{stem}_stretch.png", dpi=100)
+    plt.close(fig)
+
+
+def _save_renders(out: Path, stem: str, title: str) -> None:
+    """Write ``<stem>_renders.png``: the checker renders of every method side by side."""
+    fig, axes = plt.subplots(1, len(ORDER), figsize=(4.2 * len(ORDER), 3.5))
+    for ax, method in zip(axes, ORDER):
+        ax.imshow(plt.imread(out / f"render_{stem}_{ORDER.index(method)}.png"))
+        ax.set_title(method, fontsize=10)
+        ax.axis("off")
+    fig.suptitle(f"{title}: checker texture through each method's UVs (Cycles)")
+    fig.tight_layout()
+    fig.savefig(out / f"{stem}_renders.png", dpi=100)
+    plt.close(fig)
+
+
+def _report(out: Path, lines: list[str]) -> None:
+    """Write the table to ``results.md`` and print it, with the list of files written."""
     table = "\n".join(lines)
     (out / "results.md").write_text(table + "\n")
     print(table)
@@ -155,7 +199,6 @@ def main(argv=None) -> int:
         " space), *_renders.png (checker renders) and spot_renders.png / spot_layouts.png (spot, no seams:"
         " renders with the seams in red, and the layouts)"
     )
-    return 0
 
 
 def _spot(out: Path, args) -> list[str]:

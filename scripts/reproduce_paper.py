@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -46,26 +47,59 @@ def fmt_time(t):
     return f"{t * 1e3:.1f} ms" if t < 1 else f"{t:.2f} s"
 
 
+@dataclass(frozen=True)
+class Plan:
+    """What to run: the random S-surface's sizes and seeds, and the timed runs per method."""
+
+    sizes: list[int]
+    seeds: list[int]
+    rep_fast: int  # timed runs of the fast methods (isoparam, Floater)
+    rep_iso: int  # timed runs of Isomap
+
+
 def main(argv=None) -> int:
+    """Run Section 6's experiments; write ``results.md`` and the figures, and print the table."""
+    args = _parse(argv)
+    out = ROOT / args.out
+    out.mkdir(parents=True, exist_ok=True)
+    plan = _plan(args.quick)
+    md = ["# Sun & Hancock, Section 6, reproduced", ""]
+    md += _peaks(out, plan)
+    md += _regular_s(out, plan)
+    R = _random_s_samples(out, plan)
+    md += _random_s_table(R, plan)
+    _plot_fig4(out, R, plan.sizes)
+    text = "\n".join(md) + "\n"
+    (out / "results.md").write_text(text)
+    print(text)
+    print(f"wrote {out}/results.md and fig2/3/4/5 PNGs")
+    return 0
+
+
+def _parse(argv):
+    """The command line's options."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="out/paper")
     ap.add_argument("--quick", action="store_true", help="fewer sizes and seeds")
-    args = ap.parse_args(argv)
-    out = ROOT / args.out
-    out.mkdir(parents=True, exist_ok=True)
-    sizes = [200, 600, 1000] if args.quick else [100, 200, 400, 600, 800, 1000, 1500, 2000]
-    seeds = [0, 1] if args.quick else [0, 1, 2, 3, 4]
-    rep_fast, rep_iso = (3, 1) if args.quick else (5, 2)
-    md = ["# Sun & Hancock, Section 6, reproduced", ""]
+    return ap.parse_args(argv)
 
-    # ---------------------------------------------------------------- peaks
+
+def _plan(quick: bool) -> Plan:
+    """The full run, or with ``--quick`` fewer sizes, seeds and timed runs."""
+    if quick:
+        return Plan(sizes=[200, 600, 1000], seeds=[0, 1], rep_fast=3, rep_iso=1)
+    return Plan(sizes=[100, 200, 400, 600, 800, 1000, 1500, 2000], seeds=[0, 1, 2, 3, 4], rep_fast=5, rep_iso=2)
+
+
+def _peaks(out: Path, plan: Plan) -> list[str]:
+    """Peaks by every method against the paper's figures: the table, and Fig. 5's layouts."""
     V, F = ex.peaks(41)
-    uv_o, t_o = timed(lambda V=V, F=F: ours(V, F), rep_fast)
-    uv_i, t_i = timed(lambda V=V, F=F: baselines.isomap(V, F), rep_iso)
-    uv_f, t_f = timed(lambda: baselines.floater(V, F), rep_fast)
+    uv_o, t_o = timed(lambda V=V, F=F: ours(V, F), plan.rep_fast)
+    uv_i, t_i = timed(lambda V=V, F=F: baselines.isomap(V, F), plan.rep_iso)
+    uv_f, t_f = timed(lambda: baselines.floater(V, F), plan.rep_fast)
     uv_d, _ = baselines.dense_paper(V, F)
-    uv_r, t_r = timed(lambda V=V, F=F: ours(V, F, 100), rep_fast)
-    md += [
+    uv_r, t_r = timed(lambda V=V, F=F: ours(V, F, 100), plan.rep_fast)
+    md = [
         "## peaks 41x41, z scaled by 1/3 (1681 vertices, 4880 edges)",
         "",
         "| method | residual variance | edge RMS | flips | time here | paper's figures |",
@@ -91,9 +125,12 @@ def main(argv=None) -> int:
     fig.tight_layout()
     fig.savefig(out / "fig5_peaks.png", dpi=110)
     plt.close(fig)
+    return md
 
-    # ---------------------------------------------------------------- regular S
-    md += [
+
+def _regular_s(out: Path, plan: Plan) -> list[str]:
+    """The regular S-surface at three sizes, ours against Isomap: the table, and Fig. 2's layouts."""
+    md = [
         "",
         "## Regular S-surface (exactly developable grid)",
         "",
@@ -102,29 +139,37 @@ def main(argv=None) -> int:
     ]
     for nt, nw in ((30, 10), (50, 12), (70, 20)):
         V, F, _ = ex.s_surface(nt, nw)
-        uv_o, t_o = timed(lambda V=V, F=F: ours(V, F), rep_fast)
-        uv_i, t_i = timed(lambda V=V, F=F: baselines.isomap(V, F), rep_iso)
+        uv_o, t_o = timed(lambda V=V, F=F: ours(V, F), plan.rep_fast)
+        uv_i, t_i = timed(lambda V=V, F=F: baselines.isomap(V, F), plan.rep_iso)
         md.append(
             f"| {len(V)} | {metrics.residual_variance(V, F, uv_o):.2e} | "
             f"{metrics.residual_variance(V, F, uv_i):.2e} | {fmt_time(t_o)} | {fmt_time(t_i)} |"
         )
         if len(V) == 600:
-            fig, axes = plt.subplots(1, 2, figsize=(12, 3.2))
-            draw_layout(axes[0], F, uv_o, None, "isoparam (regular S, N = 600)")
-            draw_layout(axes[1], F, uv_i, None, "Isomap")
-            fig.tight_layout()
-            fig.savefig(out / "fig2_regular_s.png", dpi=110)
-            plt.close(fig)
+            _save_pair(out / "fig2_regular_s.png", F, uv_o, uv_i, "isoparam (regular S, N = 600)")
     md.append("")
     md.append("The paper reports residual variances below 1e-21 for its method on regular samplings.")
+    return md
 
-    # ---------------------------------------------------------------- random S (Fig. 4)
+
+def _save_pair(path: Path, F, uv_o, uv_i, title: str) -> None:
+    """Write ours (titled ``title``) beside Isomap's layout to ``path``."""
+    fig, axes = plt.subplots(1, 2, figsize=(12, 3.2))
+    draw_layout(axes[0], F, uv_o, None, title)
+    draw_layout(axes[1], F, uv_i, None, "Isomap")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _random_s_samples(out: Path, plan: Plan) -> np.ndarray:
+    """Ours, Isomap and ours refined on every random S-surface, a row each (Fig. 4); Fig. 3's layouts."""
     rows = []
-    for n in sizes:
-        for seed in seeds:
+    for n in plan.sizes:
+        for seed in plan.seeds:
             V, F, _ = ex.s_surface_random(n, seed)
-            uv_o, t_o = timed(lambda V=V, F=F: ours(V, F), rep_fast)
-            uv_i, t_i = timed(lambda V=V, F=F: baselines.isomap(V, F), rep_iso)
+            uv_o, t_o = timed(lambda V=V, F=F: ours(V, F), plan.rep_fast)
+            uv_i, t_i = timed(lambda V=V, F=F: baselines.isomap(V, F), plan.rep_iso)
             uv_r = ours(V, F, 100)
             rows.append(
                 (
@@ -140,24 +185,25 @@ def main(argv=None) -> int:
                     metrics.flipped(V, F, uv_r),
                 )
             )
-            if n == 600 and seed == seeds[0]:
-                fig, axes = plt.subplots(1, 2, figsize=(12, 3.2))
-                draw_layout(axes[0], F, uv_o, None, f"isoparam (random S, N = 600, seed {seed})")
-                draw_layout(axes[1], F, uv_i, None, "Isomap")
-                fig.tight_layout()
-                fig.savefig(out / "fig3_random_s.png", dpi=110)
-                plt.close(fig)
-    R = np.array(rows, dtype=float)
-    md += [
+            if n == 600 and seed == plan.seeds[0]:
+                _save_pair(out / "fig3_random_s.png", F, uv_o, uv_i, f"isoparam (random S, N = 600, seed {seed})")
+    return np.array(rows, dtype=float)
+
+
+def _random_s_table(R: np.ndarray, plan: Plan) -> list[str]:
+    """The medians per N of the random S-surface's samples, and how often each method won."""
+    # R's columns: N, seed, residual variance (ours, Isomap), time (ours, Isomap), flips (ours,
+    # Isomap), residual variance and flips refined
+    md = [
         "",
-        f"## Random S-surface (Fig. 4): {len(seeds)} seeds per N, medians",
+        f"## Random S-surface (Fig. 4): {len(plan.seeds)} seeds per N, medians",
         "",
         "| N | isoparam residual variance | Isomap residual variance | isoparam better | "
         "isoparam flips | isoparam time | Isomap time | isoparam + refinement residual variance "
         "| refined better than Isomap | refined flips |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for n in sizes:
+    for n in plan.sizes:
         s = R[R[:, 0] == n]
         md.append(
             f"| {n} | {np.median(s[:, 2]):.2e} | {np.median(s[:, 3]):.2e} | "
@@ -175,6 +221,11 @@ def main(argv=None) -> int:
         "describes its method as 'mostly better' than Isomap here. With the refinement (beyond the "
         f"paper) it is lower on {won_r} of {len(R)}, with {int(R[:, 9].sum())} flipped triangles in all.",
     ]
+    return md
+
+
+def _plot_fig4(out: Path, R: np.ndarray, sizes: list[int]) -> None:
+    """Write Fig. 4: median residual variance and time against N, ours and Isomap's."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for col, name, mark in ((2, "isoparam", "o-"), (3, "Isomap", "s--")):
         med = [np.median(R[R[:, 0] == n, col]) for n in sizes]
@@ -190,12 +241,6 @@ def main(argv=None) -> int:
     fig.tight_layout()
     fig.savefig(out / "fig4_random_s.png", dpi=110)
     plt.close(fig)
-
-    text = "\n".join(md) + "\n"
-    (out / "results.md").write_text(text)
-    print(text)
-    print(f"wrote {out}/results.md and fig2/3/4/5 PNGs")
-    return 0
 
 
 if __name__ == "__main__":
