@@ -19,4 +19,6 @@ In pipeline order:
     the collapse step, SLIM's weights.
 ``contact.py``
     The barrier and step cap that keep an island's boundary from crossing itself.
+``watch.py``
+    Where the descent follows contact, and where it only tests a step's end.
 """

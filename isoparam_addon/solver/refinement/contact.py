@@ -22,12 +22,13 @@ tested for crossings at its end instead.
 Banks of a cut laid out as one (a layout cut further goes on from where it was) start in
 contact: they are pushed a thousandth of an edge apart first (:meth:`Contact.separate`).
 
-The refinement watches contact only where it is likely or met (see :mod:`.descent`).
+The refinement watches contact only where it is likely or met (see :mod:`.watch`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Self
 
 import numpy as np
 
@@ -35,7 +36,7 @@ from ..geometry import safe_divide
 from ..mesh.halfedges import HalfEdges
 from ..overlap import _pairs_in_cells, crossings
 
-__all__ = ["Contact", "Near"]
+__all__ = ["Boundary", "Contact", "Near"]
 
 _GAP = 0.5  # the barrier starts this share of its edge's length away
 _STIFFNESS = 1.0  # the barrier's scale, in the energies of a face on its edge (an equilateral one)
@@ -57,10 +58,64 @@ def _distances(x: np.ndarray, v: np.ndarray, a: np.ndarray, b: np.ndarray):
     return np.sqrt((diff * diff).sum(axis=1)), s, diff
 
 
+def _log_barrier(d: np.ndarray, g: np.ndarray):
+    """The barrier ``b(d) = -(d - g)^2 ln(d / g)`` (p,) of pairs at distances ``d`` (p,)
+    below their gaps ``g`` (p,), scaled to a face's energy (the area of an equilateral face
+    on the edge, 2 gaps), and its slope ``db / dd`` (p,)."""
+    w = _STIFFNESS * np.sqrt(3.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log = np.log(d / g)
+        value = -w * (d - g) ** 2 * log
+        slope = -w * (2.0 * (d - g) * log + (d - g) ** 2 / d)  # d value / d d
+    return value, slope
+
+
+def _first_meeting(e0: np.ndarray, e1: np.ndarray, r0: np.ndarray, r1: np.ndarray) -> np.ndarray:
+    """Per pair (p,), the first step t > 0 at which a vertex meets an edge as both move (inf
+    if it never does): ``e0 + t e1`` (p, 2) is the edge (its end from its start), ``r0 + t r1``
+    (p, 2) the vertex from the edge's start. The positive roots of their orientation, a
+    quadratic in t, where the vertex then lies within the edge."""
+    c2 = e1[:, 0] * r1[:, 1] - e1[:, 1] * r1[:, 0]
+    c1 = e0[:, 0] * r1[:, 1] - e0[:, 1] * r1[:, 0] + e1[:, 0] * r0[:, 1] - e1[:, 1] * r0[:, 0]
+    c0 = e0[:, 0] * r0[:, 1] - e0[:, 1] * r0[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        disc = np.sqrt(np.maximum(c1 * c1 - 4.0 * c2 * c0, 0.0))
+        q = -0.5 * (c1 + np.where(c1 >= 0, disc, -disc))  # (the stable form of the roots)
+        roots = np.stack([q / c2, c0 / q, -c0 / c1], axis=1)
+    linear = np.abs(c2) <= 1e-14 * (np.abs(c1) + np.abs(c0))
+    roots[:, :2] = np.where(linear[:, None], np.inf, roots[:, :2])
+    roots[:, 2] = np.where(linear, roots[:, 2], np.inf)
+    roots = np.where(np.isfinite(roots) & (roots > 0), roots, np.inf)
+    real = (c1 * c1 - 4.0 * c2 * c0 >= 0) | linear
+    roots = np.where(real[:, None], roots, np.inf)
+    # the meeting counts only where the vertex lies on the edge then
+    t = np.where(np.isfinite(roots), roots, 0.0)
+    et = e0[:, None, :] + t[:, :, None] * e1[:, None, :]
+    rt = r0[:, None, :] + t[:, :, None] * r1[:, None, :]
+    along = safe_divide((et * rt).sum(axis=2), (et * et).sum(axis=2), -1.0)
+    return np.where(np.isfinite(roots) & (along >= 0.0) & (along <= 1.0), roots, np.inf).min(axis=1)
+
+
+def _inward_normals(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Per vertex (n, 2), the unit inward normal of the boundary ``edges`` (k, 2) in ``x``
+    (n, 2): the sum of its two edges' unit normals, turned left (the island is on the left),
+    normalised; 0 off the boundary."""
+    a, b = edges[:, 0], edges[:, 1]
+    t = x[b] - x[a]
+    normal = np.stack([-t[:, 1], t[:, 0]], axis=1)
+    normal = safe_divide(normal, np.hypot(normal[:, 0], normal[:, 1])[:, None])
+    n = len(x)
+    out = np.stack(
+        [np.bincount(a, normal[:, c], minlength=n) + np.bincount(b, normal[:, c], minlength=n) for c in range(2)],
+        axis=1,
+    )
+    return safe_divide(out, np.hypot(out[:, 0], out[:, 1])[:, None])
+
+
 @dataclass(frozen=True)
 class Near:
     """Parts of a boundary that may touch in a step: (vertex, edge) pairs (``vertex``,
-    ``edge``: an index into :attr:`Contact.edges`), and the distance below which each
+    ``edge``: an index into :attr:`Boundary.edges`), and the distance below which each
     pair's barrier acts (``gap``)."""
 
     vertex: np.ndarray
@@ -74,8 +129,9 @@ class Near:
 
 
 @dataclass
-class Contact:
-    """The boundary of every island of a layout, and its barrier (module docstring).
+class Boundary:
+    """The boundary of every island of a layout: its edges, how far a step moves them, and
+    whether it crosses itself.
 
     Attributes
     ----------
@@ -98,8 +154,8 @@ class Contact:
     starting: np.ndarray  # (n,) the boundary edge each boundary vertex starts (-1 off it)
 
     @classmethod
-    def of(cls, X: np.ndarray, faces: np.ndarray, vertex_island: np.ndarray, n_islands: int) -> Contact:
-        """The contact of the islands of ``faces`` (m, 3) over ``X`` (n, 3), each of whose
+    def of(cls, X: np.ndarray, faces: np.ndarray, vertex_island: np.ndarray, n_islands: int) -> Self:
+        """The boundary of the islands of ``faces`` (m, 3) over ``X`` (n, 3), each of whose
         vertices is in island ``vertex_island`` (n,)."""
         he = HalfEdges(faces, len(X))
         h = np.flatnonzero(he.edge_count[he.edge] == 1)
@@ -119,6 +175,50 @@ class Contact:
         np.maximum.at(out, self.edges[:, 0], self.gap)
         np.maximum.at(out, self.edges[:, 1], self.gap)
         return out
+
+    def _usable(self, x: np.ndarray) -> np.ndarray:
+        """Per boundary edge, whether contact can be followed there: its island has a size
+        (a part collapsed to a point has none) and its layout numbers a grid can hold (a
+        layout left as it is may hold none)."""
+        return (self.gap > 0) & (np.abs(x[self.edges]) < 1e150).all(axis=(1, 2))
+
+    def motion(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Per vertex (n,), how far it moves along ``p`` (n, 2) with its island's step
+        ``t`` (per island; boundary vertices only, 0 elsewhere)."""
+        out = np.zeros(len(p))
+        v = self.edges[:, 0]
+        out[v] = np.hypot(p[v, 0], p[v, 1]) * t[self.edge_island]
+        return out
+
+    def followed(self, motion: np.ndarray, n_islands: int) -> np.ndarray:
+        """Per island (n_islands,) bool: whether contact is followed along the whole of a
+        step that moves each vertex by ``motion`` (n,) (else its end is tested for
+        crossings)."""
+        v = self.edges[:, 0]
+        beyond = motion[v] > _FOLLOWED * self.gap
+        return np.bincount(self.edge_island[beyond], minlength=n_islands) == 0
+
+    def skin(self) -> np.ndarray:
+        """Per vertex (n,) (0 off the boundary), the margin a list of pairs is built with
+        beyond what a step needs, so that the next steps can use it too."""
+        return _SKIN * self._vertex_gap()
+
+    def crossing(self, x: np.ndarray, which: np.ndarray | None = None) -> np.ndarray:
+        """Per island bool: islands (of ``which``, all by default) whose boundary crosses
+        itself in ``x`` (n, 2)."""
+        out = np.zeros(self.n_islands, dtype=bool)
+        finite = self._usable(x)
+        if which is not None:
+            finite &= which[self.edge_island]
+        i, _ = crossings(x, self.edges[finite], self.edge_island[finite])
+        out[self.edge_island[finite][i]] = True
+        return out
+
+
+class Contact(Boundary):
+    """Where the boundary of every island may touch itself (module docstring): its vertices
+    and edges near each other, their barrier, the first step at which they meet, and banks
+    that start in contact pushed apart."""
 
     def near(self, x: np.ndarray, which: np.ndarray, motion: np.ndarray | None = None) -> Near:
         """The (vertex, edge) pairs of the boundaries of the islands ``which``
@@ -171,6 +271,15 @@ class Contact:
         act, meet = d < near.gap + reach, d <= reach
         return Near(v[act], e[act], near.gap[act]), Near(v[meet], e[meet], near.gap[meet])
 
+    def touching(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """Islands (n_islands,) bool of ``which`` with a boundary vertex within ``_TOUCHING``
+        of its gap from an edge in ``x`` (n, 2): the banks of a cut laid out as one, a
+        boundary pressed against itself; where contact is followed from the start."""
+        near = self.near(x, which)
+        d = _distances(x, near.vertex, self.edges[near.edge, 0], self.edges[near.edge, 1])[0]
+        touching = near.edge[d < _TOUCHING * near.gap]
+        return np.bincount(self.edge_island[touching], minlength=self.n_islands) > 0
+
     def energy(self, x: np.ndarray, near: Near, n_islands: int):
         """Per island (n_islands,) the barrier in ``x`` (n, 2) of the pairs ``near`` (0
         elsewhere), and its gradient (n, 2)."""
@@ -185,12 +294,7 @@ class Contact:
             return np.zeros(n_islands), grad
         v, e, s, d, island = v[close], e[close], s[close], d[close], island[close]
         u = safe_divide(diff[close], d[:, None])
-        # scaled to a face's energy: the area of an equilateral face on the edge (2 gaps)
-        g, w = near.gap[close], _STIFFNESS * np.sqrt(3.0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            log = np.log(d / g)
-            value = -w * (d - g) ** 2 * log
-            slope = -w * (2.0 * (d - g) * log + (d - g) ** 2 / d)  # d value / d d
+        value, slope = _log_barrier(d, near.gap[close])
         a, b = self.edges[e, 0], self.edges[e, 1]
         n = len(x)
         force = slope[:, None] * u
@@ -204,83 +308,15 @@ class Contact:
 
     def first_contact(self, x: np.ndarray, p: np.ndarray, near: Near, n_islands: int) -> np.ndarray:
         """Per island (n_islands,), the first step t > 0 along ``p`` (n, 2) from ``x`` at
-        which a boundary vertex of the pairs ``near`` meets its edge (inf if none does): the
-        positive roots of the orientation of the vertex against the moving edge, a
-        quadratic in t, where the vertex then lies within the edge."""
+        which a boundary vertex of the pairs ``near`` meets its edge (inf if none does; see
+        :func:`_first_meeting`)."""
         out = np.full(n_islands, np.inf)
         if not len(near.vertex):
             return out
         v, a, b = near.vertex, self.edges[near.edge, 0], self.edges[near.edge, 1]
-        e0, e1 = x[b] - x[a], p[b] - p[a]  # the edge, and its change per unit step
-        r0, r1 = x[v] - x[a], p[v] - p[a]  # the vertex from the edge's start
-        c2 = e1[:, 0] * r1[:, 1] - e1[:, 1] * r1[:, 0]
-        c1 = e0[:, 0] * r1[:, 1] - e0[:, 1] * r1[:, 0] + e1[:, 0] * r0[:, 1] - e1[:, 1] * r0[:, 0]
-        c0 = e0[:, 0] * r0[:, 1] - e0[:, 1] * r0[:, 0]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            disc = np.sqrt(np.maximum(c1 * c1 - 4.0 * c2 * c0, 0.0))
-            q = -0.5 * (c1 + np.where(c1 >= 0, disc, -disc))  # (the stable form of the roots)
-            roots = np.stack([q / c2, c0 / q, -c0 / c1], axis=1)
-        linear = np.abs(c2) <= 1e-14 * (np.abs(c1) + np.abs(c0))
-        roots[:, :2] = np.where(linear[:, None], np.inf, roots[:, :2])
-        roots[:, 2] = np.where(linear, roots[:, 2], np.inf)
-        roots = np.where(np.isfinite(roots) & (roots > 0), roots, np.inf)
-        real = (c1 * c1 - 4.0 * c2 * c0 >= 0) | linear
-        roots = np.where(real[:, None], roots, np.inf)
-        # the meeting counts only where the vertex lies on the edge then
-        t = np.where(np.isfinite(roots), roots, 0.0)
-        et = e0[:, None, :] + t[:, :, None] * e1[:, None, :]
-        rt = r0[:, None, :] + t[:, :, None] * r1[:, None, :]
-        along = safe_divide((et * rt).sum(axis=2), (et * et).sum(axis=2), -1.0)
-        hit = np.where(np.isfinite(roots) & (along >= 0.0) & (along <= 1.0), roots, np.inf).min(axis=1)
+        hit = _first_meeting(x[b] - x[a], p[b] - p[a], x[v] - x[a], p[v] - p[a])
         np.minimum.at(out, self.edge_island[near.edge], hit)
         return out
-
-    def touching(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
-        """Islands (n_islands,) bool of ``which`` with a boundary vertex within ``_TOUCHING``
-        of its gap from an edge in ``x`` (n, 2): the banks of a cut laid out as one, a
-        boundary pressed against itself; where contact is followed from the start."""
-        near = self.near(x, which)
-        d = _distances(x, near.vertex, self.edges[near.edge, 0], self.edges[near.edge, 1])[0]
-        touching = near.edge[d < _TOUCHING * near.gap]
-        return np.bincount(self.edge_island[touching], minlength=self.n_islands) > 0
-
-    def _usable(self, x: np.ndarray) -> np.ndarray:
-        """Per boundary edge, whether contact can be followed there: its island has a size
-        (a part collapsed to a point has none) and its layout numbers a grid can hold (a
-        layout left as it is may hold none)."""
-        return (self.gap > 0) & (np.abs(x[self.edges]) < 1e150).all(axis=(1, 2))
-
-    def crossing(self, x: np.ndarray, which: np.ndarray | None = None) -> np.ndarray:
-        """Per island bool: islands (of ``which``, all by default) whose boundary crosses
-        itself in ``x`` (n, 2)."""
-        out = np.zeros(self.n_islands, dtype=bool)
-        finite = self._usable(x)
-        if which is not None:
-            finite &= which[self.edge_island]
-        i, _ = crossings(x, self.edges[finite], self.edge_island[finite])
-        out[self.edge_island[finite][i]] = True
-        return out
-
-    def motion(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Per vertex (n,), how far it moves along ``p`` (n, 2) with its island's step
-        ``t`` (per island; boundary vertices only, 0 elsewhere)."""
-        out = np.zeros(len(p))
-        v = self.edges[:, 0]
-        out[v] = np.hypot(p[v, 0], p[v, 1]) * t[self.edge_island]
-        return out
-
-    def followed(self, motion: np.ndarray, n_islands: int) -> np.ndarray:
-        """Per island (n_islands,) bool: whether contact is followed along the whole of a
-        step that moves each vertex by ``motion`` (n,) (else its end is tested for
-        crossings)."""
-        v = self.edges[:, 0]
-        beyond = motion[v] > _FOLLOWED * self.gap
-        return np.bincount(self.edge_island[beyond], minlength=n_islands) == 0
-
-    def skin(self) -> np.ndarray:
-        """Per vertex (n,) (0 off the boundary), the margin a list of pairs is built with
-        beyond what a step needs, so that the next steps can use it too."""
-        return _SKIN * self._vertex_gap()
 
     def separate(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
         """``x`` (n, 2) with the boundary vertices of islands ``which`` that lie on another
@@ -292,17 +328,6 @@ class Contact:
         touching = np.unique(v[d < _APART * self.gap[e] / _GAP])
         if not len(touching):
             return x
-        # inward normal of a boundary vertex: its two edges turned left (island on the left)
-        a, b = self.edges[:, 0], self.edges[:, 1]
-        t = x[b] - x[a]
-        normal = np.stack([-t[:, 1], t[:, 0]], axis=1)
-        normal = safe_divide(normal, np.hypot(normal[:, 0], normal[:, 1])[:, None])
-        n = len(x)
-        out = np.stack(
-            [np.bincount(a, normal[:, c], minlength=n) + np.bincount(b, normal[:, c], minlength=n) for c in range(2)],
-            axis=1,
-        )
-        out = safe_divide(out, np.hypot(out[:, 0], out[:, 1])[:, None])
-        step = np.zeros(n)
+        step = np.zeros(len(x))
         step[touching] = _APART * self._vertex_gap()[touching] / _GAP
-        return x + step[:, None] * out
+        return x + step[:, None] * _inward_normals(x, self.edges)

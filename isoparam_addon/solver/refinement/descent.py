@@ -59,7 +59,7 @@ every boundary at every step cost more than the rest of an iteration.
 Pins are Dirichlet constraints: pinned vertices keep their UV and the others adapt.
 
 Here is the descent; the per-face kernels it calls are :mod:`.per_face`'s, the proxy
-:mod:`.proxy`'s and the start :mod:`.start`'s.
+:mod:`.proxy`'s, the start :mod:`.start`'s and the contact it watches :mod:`.watch`'s.
 """
 
 from __future__ import annotations
@@ -69,15 +69,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..geometry import safe_divide, signed_double_areas
+from ..geometry import det2, safe_divide, signed_double_areas
 from ..mesh.halfedges import unique_edges
-from ..mesh.islands import Islands
+from ..mesh.islands import Islands, Labelled
 from ..mesh.ordering import nested_dissection
 from ..progress import tick
-from .contact import Contact, Near
+from .contact import Contact
 from .per_face import FaceFrames, island_energy, max_step, slim_weights, symmetric_dirichlet
 from .proxy import Proxy, quadratic_proxy
 from .start import start_layout
+from .watch import ContactWatch
 
 __all__ = ["Refinement", "refine", "unfolded"]
 
@@ -178,25 +179,140 @@ def unfolded(X, faces, uv, islands: Islands, he_twin, order=None) -> Refinement:
     return out
 
 
+# ---------------------------------------------------------------- what the descent learns
+
+
+@dataclass
+class _Memory:
+    """The L-BFGS memory of a descent: its last ``_MEMORY`` curvature pairs ``(s, y, rho)``
+    ((n, 2), (n, 2), (n_islands,); rho 0 where an island forgot them) and per island the
+    scale ``gamma`` of the proxy, from its last good pair."""
+
+    islands: Islands
+    pairs: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+    gamma: np.ndarray
+
+    @classmethod
+    def empty(cls, islands: Islands) -> _Memory:
+        return cls(islands, [], np.ones(islands.n))
+
+    def direction(self, g: np.ndarray, active: np.ndarray, proxy: Proxy) -> tuple[np.ndarray, np.ndarray]:
+        """The L-BFGS direction (n, 2) from the gradient ``g`` (n, 2) for the ``active``
+        islands, and its slope per island."""
+        islands = self.islands
+        q = np.where(islands.spread(active), g, 0.0)
+        alphas = []
+        for s_k, y_k, rho in reversed(self.pairs):
+            a_k = rho * islands.dot(s_k, q)
+            alphas.append(a_k)
+            q -= islands.spread(a_k) * y_k
+        r = proxy.solve(q) * islands.spread(self.gamma)
+        for a_k, (s_k, y_k, rho) in zip(reversed(alphas), self.pairs):
+            r += islands.spread(a_k - rho * islands.dot(y_k, r)) * s_k
+        p = -r
+        slope = islands.dot(g, p)
+        lost = active & (slope >= 0)
+        if lost.any():  # not a descent direction: those islands forget and use the proxy
+            self.forget(lost)
+            p = np.where(islands.spread(lost), -proxy.solve(np.where(islands.spread(lost), g, 0.0)), p)
+            slope = islands.dot(g, p)
+        return np.where(islands.spread(active), p, 0.0), slope
+
+    def learn(self, s: np.ndarray, y: np.ndarray, step: _Step, proxy: Proxy, per_face: Labelled) -> None:
+        """Remember the pair of the ``step`` taken, ``s`` (n, 2), and the change of the
+        gradient along it, ``y`` (n, 2), for the islands where it curves up, and scale
+        their proxy to the curvature seen along it, ``s^T H s / s^T y``."""
+        islands = self.islands
+        sy, ss = islands.dot(s, y), islands.dot(s, s)
+        good = (step.t > 0) & (sy > 1e-12 * ss)
+        if not good.any():
+            return
+        s, y = np.where(islands.spread(good), s, 0.0), np.where(islands.spread(good), y, 0.0)
+        rho = np.where(good, 1.0 / np.where(good, sy, 1.0), 0.0)
+        self.pairs = [*self.pairs, (s, y, rho)][-_MEMORY:]
+        sHs = proxy.curvature(islands, per_face, s, step.t, step.dJ)
+        self.gamma = np.where(good, sHs / np.where(good, sy, 1.0), self.gamma)
+
+    def forget(self, which: np.ndarray) -> None:
+        """Forget the pairs and the scale of the islands ``which`` (n_islands,) bool."""
+        self.pairs = [(s, y, np.where(which, 0.0, rho)) for s, y, rho in self.pairs]
+        self.gamma = np.where(which, 1.0, self.gamma)
+
+    def subset(self, which: np.ndarray, rows: np.ndarray, islands: Islands) -> _Memory:
+        """The memory of the islands ``which`` (n_islands,) bool alone: their ``rows``, as
+        ``islands``."""
+        return _Memory(islands, [(s[rows], y[rows], rho[which]) for s, y, rho in self.pairs], self.gamma[which])
+
+
+@dataclass
+class _Reweighting:
+    """When the proxy is re-weighted: the islands that descend with the re-weighted proxy
+    (``far``: a start far from isometric), and per island its energy when its weights
+    were last set (``energy``) and the iteration (``at``)."""
+
+    far: np.ndarray
+    energy: np.ndarray
+    at: np.ndarray
+
+    @classmethod
+    def starting(cls, far: np.ndarray) -> _Reweighting:
+        return cls(far, np.full(len(far), np.inf), np.zeros(len(far), dtype=np.int64))
+
+    def still_far(self, which: np.ndarray, E: np.ndarray, island_area: np.ndarray) -> np.ndarray:
+        """The islands of ``which`` that re-weight and, at energies ``E``, are not yet near
+        isometric (``_NEAR`` times ``4 * island_area``)."""
+        return which & self.far & (E > _NEAR * 4.0 * island_area)
+
+    def due(self, which: np.ndarray, E: np.ndarray, island_area: np.ndarray, iteration: int) -> np.ndarray:
+        """The islands of ``which`` still far (:meth:`still_far`) whose energy fell by
+        ``_REFRESH_DROP`` since their weights were set, or that ``_REFRESH_EVERY``
+        iterations went by since."""
+        fell = E < _REFRESH_DROP * self.energy
+        return self.still_far(which, E, island_area) & (fell | (iteration - self.at >= _REFRESH_EVERY))
+
+    def set(self, which: np.ndarray, E: np.ndarray, iteration: int) -> None:
+        """The weights of the islands ``which`` were set at energies ``E`` in ``iteration``."""
+        self.energy = np.where(which, E, self.energy)
+        self.at = np.where(which, iteration, self.at)
+
+    def subset(self, which: np.ndarray, done: int) -> _Reweighting:
+        """That of the islands ``which`` alone, counting iterations from ``done``."""
+        return _Reweighting(self.far[which], self.energy[which], self.at[which] - done)
+
+
+@dataclass
+class _Step:
+    """A step the line search found: per island its length ``t`` (0: none) along ``p``
+    (n, 2), and there the Jacobians ``J``, energies ``E``, derivatives dE/dJ ``G`` and
+    the barrier's gradient ``gb`` (n, 2); ``dJ``, the Jacobians of ``p``."""
+
+    p: np.ndarray
+    t: np.ndarray
+    J: tuple
+    E: np.ndarray
+    G: list
+    dJ: tuple  # noqa: N815 - paper-style, as J: the Jacobians of p
+    gb: np.ndarray
+
+
+# ---------------------------------------------------------------- the descent's state
+
+
 class _Descent:
     """The state of one refinement: the layout, its Jacobians, per-island energies and
-    gradient, which islands still descend, the L-BFGS memory and the proxy."""
+    gradient, which islands still descend, and what it learns as it goes: the L-BFGS
+    memory, the proxy and its re-weighting, the contact it watches."""
 
     def __init__(self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol, out: Refinement, contact=None):
         self.X, self.faces, self.islands, self.pinned, self.tol, self.out = X, faces, islands, pinned, tol, out
-        self.contact: Contact | None = contact
-        self._pairs: Near | None = None  # (see near)
-        self._pairs_at = self._pairs_for = self._allowance = np.zeros(0)
+        self.watch = ContactWatch(contact, islands.n)
         self.proxy = proxy
         self.frames = proxy.frames
         self.area = proxy.frames.area
         self.per_face = Islands.labelled(islands.label[faces[:, 0]], islands.n)
         self.x = x
-        self.memory: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (s, y, rho per island)
-        self.gamma = np.ones(islands.n)  # per-island scale of the proxy, from the last good pair
+        self.memory = _Memory.empty(islands)
         self.history: list[np.ndarray] = []  # per-island energies of the last iterations
-        self.refreshed_energy = np.full(islands.n, np.inf)  # each island's energy when its weights were set
-        self.refreshed_at = np.zeros(islands.n, dtype=np.int64)
         self.fixed = np.flatnonzero(pinned)
 
     def begin(
@@ -226,86 +342,34 @@ class _Descent:
         self.settled_energy = float(np.where(self.settled, E, 0.0).sum()) if settle else 0.0
         self.settled_area = float(self.island_area[self.settled].sum())
         self.set_active(active)
-        self.pending = np.zeros(self.islands.n, dtype=bool)
-        if self.contact is not None:
-            self.x = self.contact.separate(self.x, active & ~self.pinned_island())
-            # no contact where the boundary crosses itself at the start (it can only be left
-            # so), nor where pins shape the island (their copies of a seam vertex may meet)
-            self.no_contact = self.contact.crossing(self.x, active) | self.pinned_island()
-        else:
-            self.no_contact = np.ones(self.islands.n, dtype=bool)
+        self.x = self.watch.begin(self.x, active, self.pinned_island())
         self.start = self.x if start is None else start
         self.J = self.frames.jacobians(self.x)
         self.E, self.G = self.energies(self.J)
-        if watched is None and self.contact is not None:
+        if watched is None and self.watch.on:
             # a start far from isometric moves its boundary far: contact is likely met
             far = self.E > _CRUSHED * 4.0 * self.island_area
-            watched = far | self.contact.touching(self.x, active & ~self.no_contact)
-        self.watched = np.zeros(self.islands.n, dtype=bool) if watched is None else watched
-        self.Eb, self.gb = self.barrier(self.x, self.near(None, None, active))
+            watched = far | self.watch.touching(self.x, active)
+        self.watch.watched = np.zeros(self.islands.n, dtype=bool) if watched is None else watched
+        self.Eb, self.gb = self.watch.barrier(self.x, self.watch.near(self.x, None, None, active))
         self.E = self.E + self.Eb
         self.trace = [self.E]  # per island, the start's energy and each ARAP step's
         # a start far from isometric (crushed faces) descends with the re-weighted proxy; a
         # start near it (the four-step layout of a near-developable island) with the
         # cotangent one, whose descent neither needs the re-weighting nor carries rounding
         # of the start as far
-        self.reweighting = active & (self.E > _CRUSHED * 4.0 * self.island_area)
+        self.reweighting = _Reweighting.starting(active & (self.E > _CRUSHED * 4.0 * self.island_area))
 
     def pinned_island(self) -> np.ndarray:
         """Islands (n_islands,) bool with a pinned vertex (their layout is the pins')."""
         return np.bincount(self.islands.label, self.pinned, minlength=self.islands.n) > 0
 
-    def near(self, p, t, which: np.ndarray) -> Near:
-        """The boundary pairs of the islands ``which`` that may touch on a step ``t`` (per
-        island) along ``p`` (n, 2) from here (None: no step).
-
-        A list of pairs is kept from step to step while it covers them (a Verlet list, as
-        molecular dynamics keeps neighbours): it holds the pairs that came within reach
-        of a motion ``allowance`` per vertex when it was made, and serves while no vertex
-        has moved, since, by more than its allowance together with the step to come."""
-        if self.contact is None:
-            return Near.none()
-        which = which & ~self.no_contact & self.watched
-        motion = np.zeros(len(self.x)) if p is None else self.contact.motion(p, t)
-        cached = self._pairs
-        if cached is not None:
-            v = self.contact.edges[which[self.contact.edge_island], 0]  # (the boundary's vertices)
-            drift = np.hypot(*(self.x[v] - self._pairs_at[v]).T)
-            if not (which & ~self._pairs_for).any() and (drift + motion[v] <= self._allowance[v]).all():
-                return cached
-        self._allowance = motion + self.contact.skin()
-        self._pairs = self.contact.near(self.x, which, self._allowance)
-        self._pairs_at, self._pairs_for = self.x.copy(), which.copy()
-        return self._pairs
-
-    def near_step(self, p: np.ndarray, t: np.ndarray, which: np.ndarray) -> tuple[Near, Near]:
-        """The pairs whose barrier can act on the step ``t`` along ``p``, and those that can
-        meet on it (:meth:`near`, narrowed to the step)."""
-        near = self.near(p, t, which)
-        if self.contact is None:
-            return near, near
-        return self.contact.within(self.x, near, self.contact.motion(p, t))
-
-    def first_contact(self, p: np.ndarray, near: Near) -> np.ndarray:
-        """Per island, the first step along ``p`` at which its boundary touches itself."""
-        if self.contact is None:
-            return np.full(self.islands.n, np.inf)
-        return self.contact.first_contact(self.x, p, near, self.islands.n)
-
-    def followed(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Islands (n_islands,) bool along whose step ``t`` along ``p`` contact is followed
-        (the others' steps are tested for crossings at their end)."""
-        if self.contact is None:
-            return np.ones(self.islands.n, dtype=bool)
-        return self.contact.followed(self.contact.motion(p, t), self.islands.n) & self.watched
-
-    def refused(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
-        """Islands (n_islands,) bool of ``which`` whose boundary crosses itself in ``x``
-        (a step that went past what :meth:`first_contact` follows, or an island whose
-        contact is not watched); those not watched are watched from the next step on."""
-        crossed = self.crossing(x, which)
-        self.pending |= crossed & ~self.watched
-        return crossed
+    def evaluate(self) -> None:
+        """The energies ``E`` (the barrier's ``Eb`` included), dE/dJ ``G`` and the barrier's
+        gradient ``gb`` at the Jacobians ``J`` of the layout ``x``."""
+        self.E, self.G = self.energies(self.J)
+        self.Eb, self.gb = self.watch.barrier(self.x, self.watch.near(self.x, None, None, self.active))
+        self.E = self.E + self.Eb
 
     def watch_pending(self) -> bool:
         """Watch the contact of the islands whose step was refused for crossing while it
@@ -313,36 +377,16 @@ class _Descent:
         descent that met contact unwatched has pressed parts of the boundary together,
         where a barrier added then holds the island out of shape, and stops it). Returns
         whether an island was (its layout, energy and barrier are then new)."""
-        newly = self.pending & self.active
-        self.pending[:] = False
-        if self.contact is None or not newly.any():
+        newly = self.watch.watch_pending(self.active)
+        if not newly.any():
             return False
-        self.watched = self.watched | newly
         self.x = np.where(self.islands.spread(newly), self.start, self.x)
         self.J = self.frames.jacobians(self.x)
-        self.E, self.G = self.energies(self.J)
-        self._pairs = None
-        self.Eb, self.gb = self.barrier(self.x, self.near(None, None, self.active))
-        self.E = self.E + self.Eb
+        self.evaluate()
         # what they learnt and how far they went belong to the descent left
-        self.memory = [(s, y, np.where(newly, 0.0, rho)) for s, y, rho in self.memory]
-        self.gamma = np.where(newly, 1.0, self.gamma)
+        self.memory.forget(newly)
         self.history = [np.where(newly, np.inf, h) for h in self.history]
         return True
-
-    def crossing(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
-        """Islands (n_islands,) bool of ``which`` whose boundary crosses itself in ``x``
-        (where a long step went past what :meth:`first_contact` follows)."""
-        if self.contact is None:
-            return np.zeros(self.islands.n, dtype=bool)
-        return self.contact.crossing(x, which & ~self.no_contact)
-
-    def barrier(self, x: np.ndarray, near: Near):
-        """Per island the contact barrier of the pairs ``near`` in ``x`` (0 without
-        contact), and its gradient (n, 2)."""
-        if self.contact is None:
-            return np.zeros(self.islands.n), np.zeros_like(x)
-        return self.contact.energy(x, near, self.islands.n)
 
     def mean_energy(self, E: np.ndarray) -> float:
         """The energy per unit area of the islands refined (per-island ``E``) and of
@@ -367,139 +411,33 @@ class _Descent:
         if not self.every_face_live:
             G = [np.where(self.live_face, Gk, 0.0) for Gk in G]
         g = np.stack([fr.DxT @ G[0] + fr.DyT @ G[1], fr.DxT @ G[2] + fr.DyT @ G[3]], axis=1)
-        if self.contact is not None:
+        if self.watch.on:
             g += self.gb
         g[self.pinned] = 0.0
         return g
 
-    # ---------------------------------------------------------------- the proxy
-
-    def refresh(self, iteration: int, force: bool = False, which: np.ndarray | None = None) -> None:
-        """Re-weigh the proxy of the active islands that are far from isometric, if their
-        energy fell by ``_REFRESH_DROP`` since their weights were set, or
-        ``_REFRESH_EVERY`` iterations went by (``force``: whatever the time); or of the
-        islands ``which`` (n_islands,) bool."""
-        if which is not None:
-            self._reweigh(iteration, which)
-            return
-        far = self.active & self.reweighting & (self.E > _NEAR * 4.0 * self.island_area)
-        due = (
-            force | (self.E < _REFRESH_DROP * self.refreshed_energy) | (iteration - self.refreshed_at >= _REFRESH_EVERY)
-        )
-        self._reweigh(iteration, far & due)
-
-    def _reweigh(self, iteration: int, which: np.ndarray) -> None:
+    def refresh(self, iteration: int, which: np.ndarray | None = None) -> None:
+        """Re-weigh the proxy of the islands ``which`` (n_islands,) bool, by default of the
+        active ones that are due (:meth:`_Reweighting.due`)."""
+        if which is None:
+            which = self.reweighting.due(self.active, self.E, self.island_area, iteration)
         if not which.any():
             return
         mine = self.per_face.expand(which) * np.ones(len(self.faces), dtype=bool)
         weights = np.where(mine, slim_weights(self.J), self.proxy.weights)
         self.proxy = self.proxy.reweighted(self.islands, weights, which)
-        self.refreshed_energy = np.where(which, self.E, self.refreshed_energy)
-        self.refreshed_at = np.where(which, iteration, self.refreshed_at)
-        # their curvature pairs describe the old proxy's error: forgotten
-        self.memory = [(s, y, np.where(which, 0.0, rho)) for s, y, rho in self.memory]
-        self.gamma = np.where(which, 1.0, self.gamma)
+        self.reweighting.set(which, self.E, iteration)
+        self.memory.forget(which)  # their curvature pairs describe the old proxy's error
         self.out.proxies += 1
 
-    # ---------------------------------------------------------------- L-BFGS
-
-    def direction(self, g: np.ndarray):
-        """The L-BFGS direction (n, 2) for the active islands, and its slope per island."""
-        islands = self.islands
-        q = np.where(islands.spread(self.active), g, 0.0)
-        alphas = []
-        for s_k, y_k, rho in reversed(self.memory):
-            a_k = rho * islands.dot(s_k, q)
-            alphas.append(a_k)
-            q -= islands.spread(a_k) * y_k
-        r = self.proxy.solve(q) * islands.spread(self.gamma)
-        for a_k, (s_k, y_k, rho) in zip(reversed(alphas), self.memory):
-            r += islands.spread(a_k - rho * islands.dot(y_k, r)) * s_k
-        p = -r
-        slope = islands.dot(g, p)
-        lost = self.active & (slope >= 0)
-        if lost.any():  # not a descent direction: those islands forget and use the proxy
-            self.memory = [(s_k, y_k, np.where(lost, 0.0, rho)) for s_k, y_k, rho in self.memory]
-            self.gamma[lost] = 1.0
-            p = np.where(islands.spread(lost), -self.proxy.solve(np.where(islands.spread(lost), g, 0.0)), p)
-            slope = islands.dot(g, p)
-        return np.where(islands.spread(self.active), p, 0.0), slope
-
-    def line_search(self, p: np.ndarray, slope: np.ndarray):
-        """Backtracking (Armijo) island by island, from the longest step that folds
-        nothing (capped at 1). Returns the step per island (0 where none lowered the
-        energy; those islands stop), the Jacobians, energies and dE/dJ there."""
-        per_face, active = self.per_face, self.active
-        dJ = self.frames.jacobians(p)
-        t = np.where(active, np.minimum(1.0, 0.9 * per_face.min(max_step(self.J, dJ, 1.0 / 0.9))), 0.0)
-        searching = active.copy()
-        Jt: tuple | None = None
-        Gt: list = []
-        Et = self.E
-        gb = self.gb
-        near, meet = self.near_step(p, t, searching)
-        t = np.minimum(t, 0.9 * self.first_contact(p, meet))  # (no boundary crosses on the way)
-        followed = self.followed(p, t)
-        while searching.any():
-            f = None if Jt is None else per_face.members(searching)
-            if Jt is None or f is None or 2 * len(f) > len(self.area):
-                Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(self.J, dJ))
-                Et, Gt_ = self.energies(Jt)
-                Gt = list(Gt_)
-            else:  # few faces still searching: evaluate only theirs, the rest stands
-                tf = t[per_face.label[f]]
-                Jf = [np.take(j, f) + tf * np.take(dj, f) for j, dj in zip(self.J, dJ)]
-                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                    ef, Gf = symmetric_dirichlet(Jf[0], Jf[1], Jf[2], Jf[3], np.take(self.area, f))
-                for k in range(4):
-                    Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
-                Et = np.where(searching, np.bincount(per_face.label[f], ef, minlength=self.islands.n), Et)
-            lower = Et <= self.E + 1e-4 * t * slope
-            crossed = np.zeros(self.islands.n, dtype=bool)
-            if self.contact is not None:
-                xt = self.x + self.islands.spread(np.where(searching, t, 0.0)) * p
-                Eb, gb_t = self.barrier(xt, near)
-                Et = np.where(searching, Et + Eb, Et)
-                lower = Et <= self.E + 1e-4 * t * slope
-                gb = np.where(self.islands.spread(searching), gb_t, gb)
-                crossed = self.refused(xt, searching & lower & ~followed)
-                # an island not watched stays where it is, to be watched from there
-                t[crossed & ~self.watched] = 0.0
-                searching &= ~(crossed & ~self.watched)
-            searching &= ~lower | crossed
-            t[searching] *= 0.5
-            gone = searching & (t < 1e-12)
-            t[gone] = 0.0
-            self.active &= ~gone  # no decrease along a descent direction: as far as it goes
-            searching &= ~gone
-        assert Jt is not None
-        # every island that moved was last evaluated at its final step; the others stay
-        still = per_face.expand(t == 0)
-        Jt = tuple(np.where(still, j, jt) for j, jt in zip(self.J, Jt))
-        self.gb_next = np.where(self.islands.spread(t == 0), self.gb, gb)
-        return t, Jt, np.where(t == 0, self.E, Et), Gt, dJ
-
-    def step(self, p, t, Jt, Et, Gt, dJ, g) -> np.ndarray:
-        """Move to the step found, learn its curvature pair; returns the new gradient."""
-        islands = self.islands
-        x_new = self.x + islands.spread(t) * p
-        self.gb = self.gb_next
-        g_new = self.gradient(Gt)  # rows of islands that did not move are not used again
-        s_k, y_k = x_new - self.x, g_new - g
-        sy, ss = islands.dot(s_k, y_k), islands.dot(s_k, s_k)
-        good = (t > 0) & (sy > 1e-12 * ss)
-        if good.any():
-            s_k, y_k = np.where(islands.spread(good), s_k, 0.0), np.where(islands.spread(good), y_k, 0.0)
-            rho = np.where(good, 1.0 / np.where(good, sy, 1.0), 0.0)
-            self.memory = [*self.memory, (s_k, y_k, rho)][-_MEMORY:]
-            # scale the proxy to the curvature seen along the step, s^T H s / s^T y, with
-            # s^T K s = t^2 sum_f w_f A_f |dJ_f|^2 from the Jacobians at hand
-            wa = self.area * self.proxy.weights
-            sKs = t * t * self.per_face.sum(wa * (dJ[0] * dJ[0] + dJ[1] * dJ[1] + dJ[2] * dJ[2] + dJ[3] * dJ[3]))
-            whisper = np.repeat(self.proxy.whisper, 2).reshape(-1, 2)
-            sHs = 2.0 * (sKs + islands.dot(s_k, s_k * whisper))
-            self.gamma = np.where(good, sHs / np.where(good, sy, 1.0), self.gamma)
-        self.x, self.J, self.E = x_new, Jt, Et
+    def step(self, step: _Step, g: np.ndarray) -> np.ndarray:
+        """Move to the ``step`` found from where the gradient was ``g``, and learn its
+        curvature pair; returns the new gradient."""
+        x_new = self.x + self.islands.spread(step.t) * step.p
+        self.gb = step.gb
+        g_new = self.gradient(step.G)  # rows of islands that did not move are not used again
+        self.memory.learn(x_new - self.x, g_new - g, step, self.proxy, self.per_face)
+        self.x, self.J, self.E = x_new, step.J, step.E
         return g_new
 
 
@@ -516,12 +454,12 @@ def _local_global(desc: _Descent, steps: int) -> None:
     to fold nothing and to lower the energy, while each lowers it by ``_SLIM_DROP``
     or more, at most ``_SLIM_STEPS``.
     """
-    fr, islands, per_face = desc.frames, desc.islands, desc.per_face
+    fr, islands, per_face, watch = desc.frames, desc.islands, desc.per_face, desc.watch
     stepping = desc.active.copy()
     for k in range(max(steps, _SLIM_STEPS)):  # local/global steps
         tick()
         desc.watch_pending()
-        far = stepping & desc.reweighting & (desc.E > _NEAR * 4.0 * desc.island_area)
+        far = desc.reweighting.still_far(stepping, desc.E, desc.island_area)
         stepping &= far | (k < steps)
         if not stepping.any():
             break
@@ -531,17 +469,17 @@ def _local_global(desc: _Descent, steps: int) -> None:
         dJ = fr.jacobians(p)
         t = np.where(far, np.minimum(1.0, 0.9 * per_face.min(max_step(desc.J, dJ, 1.0 / 0.9))), 1.0)
         t = np.where(stepping, t, 0.0)
-        near, meet = desc.near_step(p, t, t > 0)
-        t = np.minimum(t, 0.9 * desc.first_contact(p, meet))  # (no boundary crosses on the way)
-        followed = desc.followed(p, t)
+        near, meet = watch.near_step(desc.x, p, t, t > 0)
+        t = np.minimum(t, 0.9 * watch.first_contact(desc.x, p, meet))  # (no boundary crosses on the way)
+        followed = watch.followed(p, t)
         for _ in range(40):  # halvings of the far islands' steps, until each lowers the energy
             Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(desc.J, dJ))
             Et, Gt = desc.energies(Jt)
-            folds = per_face.sum((Jt[0] * Jt[3] - Jt[1] * Jt[2]) <= 0) > 0
+            folds = per_face.sum(det2(*Jt) <= 0) > 0
             xt = desc.x + islands.spread(t) * p
-            Eb, gb = desc.barrier(xt, near)
+            Eb, gb = watch.barrier(xt, near)
             Et = Et + Eb
-            folds |= desc.refused(xt, (t > 0) & ~folds & (Et < desc.E) & ~followed)
+            folds |= watch.refused(xt, (t > 0) & ~folds & (Et < desc.E) & ~followed)
             worse = (t > 0) & (folds | ~(Et < desc.E))
             if not (worse & far).any():
                 break
@@ -583,6 +521,64 @@ def _global_step(desc: _Descent) -> np.ndarray:
     return y
 
 
+# ---------------------------------------------------------------- L-BFGS steps
+
+
+def _line_search(d: _Descent, p: np.ndarray, slope: np.ndarray) -> _Step:
+    """Backtracking (Armijo) island by island along ``p`` (n, 2), of slope ``slope`` per
+    island, from the longest step that folds nothing (capped at 1). The step is 0 where
+    none lowered the energy; those islands stop."""
+    per_face, islands, watch = d.per_face, d.islands, d.watch
+    dJ = d.frames.jacobians(p)
+    t = np.where(d.active, np.minimum(1.0, 0.9 * per_face.min(max_step(d.J, dJ, 1.0 / 0.9))), 0.0)
+    searching = d.active.copy()
+    Jt: tuple | None = None
+    Gt: list = []
+    Et = d.E
+    gb = d.gb
+    near, meet = watch.near_step(d.x, p, t, searching)
+    t = np.minimum(t, 0.9 * watch.first_contact(d.x, p, meet))  # (no boundary crosses on the way)
+    followed = watch.followed(p, t)
+    while searching.any():
+        f = None if Jt is None else per_face.members(searching)
+        if Jt is None or f is None or 2 * len(f) > len(d.area):
+            Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(d.J, dJ))
+            Et, Gt_ = d.energies(Jt)
+            Gt = list(Gt_)
+        else:  # few faces still searching: evaluate only theirs, the rest stands
+            tf = t[per_face.label[f]]
+            Jf = [np.take(j, f) + tf * np.take(dj, f) for j, dj in zip(d.J, dJ)]
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                ef, Gf = symmetric_dirichlet(Jf[0], Jf[1], Jf[2], Jf[3], np.take(d.area, f))
+            for k in range(4):
+                Jt[k][f], Gt[k][f] = Jf[k], Gf[k]
+            Et = np.where(searching, np.bincount(per_face.label[f], ef, minlength=islands.n), Et)
+        lower = Et <= d.E + 1e-4 * t * slope
+        crossed = np.zeros(islands.n, dtype=bool)
+        if watch.on:
+            xt = d.x + islands.spread(np.where(searching, t, 0.0)) * p
+            Eb, gb_t = watch.barrier(xt, near)
+            Et = np.where(searching, Et + Eb, Et)
+            lower = Et <= d.E + 1e-4 * t * slope
+            gb = np.where(islands.spread(searching), gb_t, gb)
+            crossed = watch.refused(xt, searching & lower & ~followed)
+            # an island not watched stays where it is, to be watched from there
+            t[crossed & ~watch.watched] = 0.0
+            searching &= ~(crossed & ~watch.watched)
+        searching &= ~lower | crossed
+        t[searching] *= 0.5
+        gone = searching & (t < 1e-12)
+        t[gone] = 0.0
+        d.active &= ~gone  # no decrease along a descent direction: as far as it goes
+        searching &= ~gone
+    assert Jt is not None
+    # every island that moved was last evaluated at its final step; the others stay
+    still = per_face.expand(t == 0)
+    Jt = tuple(np.where(still, j, jt) for j, jt in zip(d.J, Jt))
+    gb = np.where(islands.spread(t == 0), d.gb, gb)
+    return _Step(p, t, Jt, np.where(t == 0, d.E, Et), Gt, dJ, gb)
+
+
 # ---------------------------------------------------------------- the stopping test
 
 
@@ -592,22 +588,26 @@ def _converged(desc: _Descent) -> None:
     that was converged when the descent began)."""
     last = desc.history[-1] if desc.history else None
     desc.history = [*desc.history, desc.E][-(_WINDOW + 1) :]
+    pending = desc.watch.pending
     if last is not None:
-        desc.active &= ~(last - desc.E < 0.01 * desc.tol * desc.E) | desc.pending
+        desc.active &= ~(last - desc.E < 0.01 * desc.tol * desc.E) | pending
     if len(desc.history) > _WINDOW:
-        desc.active &= ~(desc.history[0] - desc.E < desc.tol * desc.E) | desc.pending
+        desc.active &= ~(desc.history[0] - desc.E < desc.tol * desc.E) | pending
+
+
+# ---------------------------------------------------------------- the refinement
 
 
 @dataclass
 class _Carry:
-    """The state handed to the islands that go on alone (see :func:`_go_on_alone`)."""
+    """The state handed to the islands that go on alone (see :func:`_go_on_alone`): what
+    the descent learnt (its memory, the ``history`` of energies, the re-weighting and the
+    proxy's face ``weights``), the islands whose contact is ``watched``, and where they
+    started."""
 
-    memory: list
-    gamma: np.ndarray
-    history: list
-    refreshed_energy: np.ndarray
-    refreshed_at: np.ndarray
-    reweighting: np.ndarray
+    memory: _Memory
+    history: list[np.ndarray]
+    reweighting: _Reweighting
     weights: np.ndarray
     watched: np.ndarray
     start: np.ndarray
@@ -668,8 +668,30 @@ def refine(
     Refinement
     """
     t0 = time.perf_counter()
-    n, k = len(X), islands.n
-    pinned = np.zeros(n, dtype=bool) if pinned is None else pinned
+    pinned = np.zeros(len(X), dtype=bool) if pinned is None else pinned
+    d = _set_up(X, faces, uv, islands, he_twin, tol, arap, pinned, order, proxy, carry, no_overlaps)
+    d = _descend(d, iterations)
+    return _finish(d, t0)
+
+
+def _set_up(
+    X: np.ndarray,
+    faces: np.ndarray,
+    uv: np.ndarray,
+    islands: Islands,
+    he_twin: np.ndarray | None,
+    tol: float | np.ndarray,
+    arap: int,
+    pinned: np.ndarray,
+    order: np.ndarray | None,
+    proxy: Proxy | None,
+    carry: _Carry | None,
+    no_overlaps: bool,
+) -> _Descent:
+    """The descent of :func:`refine` ready to iterate: its proxy, each island's start (or,
+    handed over, where the ``carry`` left it), the islands left as they are, then the
+    ARAP and SLIM steps; ``d.out.energy`` holds the energy at the start and after each."""
+    k = islands.n
     if carry is not None:
         proxy = quadratic_proxy(X, faces, islands, pinned, order, weights=carry.weights)
     elif proxy is None or not np.array_equal(proxy.pinned, pinned):
@@ -697,34 +719,10 @@ def refine(
     if carry is None:
         _local_global(d, arap)
         _leave_endless(d)
-    else:
-        d.memory, d.gamma, d.history = carry.memory, carry.gamma, carry.history
-        d.refreshed_energy, d.refreshed_at, d.reweighting = (
-            carry.refreshed_energy,
-            carry.refreshed_at,
-            carry.reweighting,
-        )
+    else:  # the descent goes on where it was
+        d.memory, d.history, d.reweighting = carry.memory, carry.history, carry.reweighting
     out.energy += [d.mean_energy(e) for e in d.trace]
-    g = d.gradient(d.G)
-    for it in range(1, (iterations if d.active.any() else 0) + 1):  # quasi-Newton steps, each one factored solve
-        tick(it / (it + _HALFWAY))
-        if d.watch_pending():
-            g = d.gradient(d.G)
-        d.refresh(it)
-        p, slope = d.direction(g)
-        t, Jt, Et, Gt, dJ = d.line_search(p, slope)
-        if not (t > 0).any() and not d.pending.any():
-            break
-        g = d.step(p, t, Jt, Et, Gt, dJ, g)
-        _converged(d)
-        out.energy.append(d.mean_energy(d.E))
-        out.iterations = it
-        if not d.active.any():
-            break
-        if it < iterations and islands.size[d.active].sum() <= _HANDOVER * n:
-            _go_on_alone(d, iterations - it, it)
-            break
-    return _finish(d, out, t0)
+    return d
 
 
 def _leave_endless(d: _Descent) -> None:
@@ -734,18 +732,44 @@ def _leave_endless(d: _Descent) -> None:
     if not endless.any():
         return
     d.set_active(d.active & ~endless)
-    d.E, d.G = d.energies(d.J)
-    d.Eb, d.gb = d.barrier(d.x, d.near(None, None, d.active))
-    d.E = d.E + d.Eb
+    d.evaluate()
     d.trace = [np.where(endless, 0.0, e) for e in d.trace]
 
 
-def _finish(d: _Descent, out: Refinement, t0: float) -> Refinement:
+def _descend(d: _Descent, iterations: int) -> _Descent:
+    """At most ``iterations`` L-BFGS steps of the descent ``d`` from where it is, until
+    every island stopped; once the islands still descending hold at most ``_HANDOVER`` of
+    the rows, they go on alone (:func:`_go_on_alone`)."""
+    g = d.gradient(d.G)
+    for it in range(1, (iterations if d.active.any() else 0) + 1):  # quasi-Newton steps, each one factored solve
+        tick(it / (it + _HALFWAY))
+        if d.watch_pending():
+            g = d.gradient(d.G)
+        d.refresh(it)
+        p, slope = d.memory.direction(g, d.active, d.proxy)
+        step = _line_search(d, p, slope)
+        if not (step.t > 0).any() and not d.watch.pending.any():
+            break
+        g = d.step(step, g)
+        _converged(d)
+        d.out.energy.append(d.mean_energy(d.E))
+        d.out.iterations = it
+        if not d.active.any():
+            break
+        if it < iterations and d.islands.size[d.active].sum() <= _HANDOVER * len(d.X):
+            _go_on_alone(d, iterations - it, it)
+            break
+    return d
+
+
+def _finish(d: _Descent, t0: float) -> Refinement:
+    """What the descent ``d`` did, begun at ``t0``."""
+    out = d.out
     out.uv = d.x
     counted = d.live_face | d.per_face.expand(d.settled)  # (islands left as they are: 0)
     out.island_area = d.per_face.sum(np.where(counted, d.area, 0.0))
     a, b, c, e = d.frames.jacobians(d.x)  # from x: a hand-over leaves J behind
-    fro, det = a * a + b * b + c * c + e * e, a * e - b * c
+    fro, det = a * a + b * b + c * c + e * e, det2(a, b, c, e)
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = fro / (det * det)
     out.island_parts = (
@@ -772,14 +796,11 @@ def _go_on_alone(d: _Descent, iterations: int, done: int) -> None:
     F_sub = index[d.faces[f]]
     X_sub = np.take(d.X, rows, axis=0)
     carry = _Carry(
-        memory=[(s_k[rows], y_k[rows], rho[active]) for s_k, y_k, rho in d.memory],
-        gamma=d.gamma[active],
+        memory=d.memory.subset(active, rows, sub),
         history=[h[active] for h in d.history],
-        refreshed_energy=d.refreshed_energy[active],
-        refreshed_at=d.refreshed_at[active] - done,
-        reweighting=d.reweighting[active],
+        reweighting=d.reweighting.subset(active, done),
         weights=d.proxy.weights[f],
-        watched=(d.watched | d.pending)[active],
+        watched=(d.watch.watched | d.watch.pending)[active],
         start=d.start[rows],
     )
     order = nested_dissection(X_sub, unique_edges(F_sub))

@@ -13,7 +13,7 @@ from scipy.sparse.linalg import splu
 
 from .._parallel import solve_columns
 from ..geometry import safe_divide
-from ..mesh.islands import Islands
+from ..mesh.islands import Islands, Labelled
 from .per_face import FaceFrames
 
 __all__ = ["Proxy", "quadratic_proxy"]
@@ -58,6 +58,14 @@ class Proxy:
             if block.lu is not None:
                 out[block.rows] = solve_columns(block.lu, np.take(g, block.rows, axis=0))
         return out
+
+    def curvature(self, islands: Islands, per_face: Labelled, s: np.ndarray, t: np.ndarray, dJ) -> np.ndarray:
+        """Per island, ``s^T H s`` of a step ``s = t p`` (n, 2) (``t`` per island), where
+        ``dJ`` are the Jacobians of ``p``: ``s^T K_w s = t^2 sum_f w_f A_f |dJ_f|^2``."""
+        wa = self.frames.area * self.weights
+        sKs = t * t * per_face.sum(wa * (dJ[0] * dJ[0] + dJ[1] * dJ[1] + dJ[2] * dJ[2] + dJ[3] * dJ[3]))
+        whisper = np.repeat(self.whisper, 2).reshape(-1, 2)
+        return 2.0 * (sKs + islands.dot(s, s * whisper))
 
     def reweighted(self, islands: Islands, weights: np.ndarray, which: np.ndarray) -> Proxy:
         """The proxy with other face weights (m,), which differ on the islands ``which``

@@ -1,0 +1,151 @@
+"""Where the descent follows contact (:mod:`.contact`), and where it only tests a step's end.
+
+Following contact on every boundary at every step (pair lists, distances, the barrier)
+costs more than the rest of an iteration, so it is followed where it is likely or met:
+from the start on islands whose boundary touches itself there or whose start is far from
+isometric, and on the others once a step would cross their boundary (the descent then
+starts them again, see :meth:`.descent._Descent.watch_pending`). Elsewhere a step is only
+tested for crossings at its end.
+
+The pairs followed are listed once and the list kept from step to step while it covers
+them (a Verlet list, as molecular dynamics keeps neighbours).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .contact import Contact, Near
+
+__all__ = ["ContactWatch"]
+
+
+@dataclass(frozen=True)
+class _VerletList:
+    """Boundary pairs that came within reach of a motion ``allowance`` (n,) per vertex in the
+    layout ``at`` (n, 2), of the islands ``which`` (n_islands,) bool."""
+
+    pairs: Near
+    at: np.ndarray
+    which: np.ndarray
+    allowance: np.ndarray
+
+    def covers(self, contact: Contact, x: np.ndarray, which: np.ndarray, motion: np.ndarray) -> bool:
+        """Whether the list holds every pair of the islands ``which`` that may touch on a
+        step moving each vertex by ``motion`` (n,) from ``x``: it lists those islands, and no
+        vertex has moved, since, by more than its allowance together with the step."""
+        v = contact.edges[which[contact.edge_island], 0]  # (the boundary's vertices)
+        drift = np.hypot(*(x[v] - self.at[v]).T)
+        return not (which & ~self.which).any() and (drift + motion[v] <= self.allowance[v]).all()
+
+
+class ContactWatch:
+    """The contact of a descent's islands: those whose contact is followed (``watched``),
+    those whose step was refused for crossing while not watched (``pending``), those
+    where it never is (``no_contact``: the boundary crosses itself at the start, or pins
+    shape the island), and the list of pairs followed.
+
+    Without a :class:`.Contact` (no overlaps kept off) no pair is followed, no barrier
+    acts and no step is refused."""
+
+    def __init__(self, contact: Contact | None, n_islands: int):
+        self.contact = contact
+        self.n_islands = n_islands
+        self.no_contact = np.ones(n_islands, dtype=bool)
+        self.watched = np.zeros(n_islands, dtype=bool)
+        self.pending = np.zeros(n_islands, dtype=bool)
+        self._list: _VerletList | None = None
+
+    @property
+    def on(self) -> bool:
+        """Whether contact is kept at all (there is a :class:`.Contact`)."""
+        return self.contact is not None
+
+    def begin(self, x: np.ndarray, active: np.ndarray, pinned_island: np.ndarray) -> np.ndarray:
+        """The start ``x`` (n, 2) of the islands ``active`` with banks that touch pushed apart
+        (:meth:`.Contact.separate`); sets where contact is never followed."""
+        if self.contact is None:
+            return x
+        x = self.contact.separate(x, active & ~pinned_island)
+        # no contact where the boundary crosses itself at the start (it can only be left
+        # so), nor where pins shape the island (their copies of a seam vertex may meet)
+        self.no_contact = self.contact.crossing(x, active) | pinned_island
+        return x
+
+    def touching(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """Islands (n_islands,) bool of ``which`` whose boundary touches itself in ``x``
+        (:meth:`.Contact.touching`)."""
+        if self.contact is None:
+            return np.zeros(self.n_islands, dtype=bool)
+        return self.contact.touching(x, which & ~self.no_contact)
+
+    def near(self, x: np.ndarray, p: np.ndarray | None, t: np.ndarray | None, which: np.ndarray) -> Near:
+        """The boundary pairs of the watched islands of ``which`` that may touch on a step
+        ``t`` (per island) along ``p`` (n, 2) from ``x`` (None: no step); from the list kept
+        while it covers them, else from a new one that allows for the next steps too."""
+        if self.contact is None:
+            return Near.none()
+        which = which & ~self.no_contact & self.watched
+        motion = np.zeros(len(x)) if p is None or t is None else self.contact.motion(p, t)
+        if self._list is not None and self._list.covers(self.contact, x, which, motion):
+            return self._list.pairs
+        allowance = motion + self.contact.skin()
+        self._list = _VerletList(self.contact.near(x, which, allowance), x.copy(), which.copy(), allowance)
+        return self._list.pairs
+
+    def near_step(self, x: np.ndarray, p: np.ndarray, t: np.ndarray, which: np.ndarray) -> tuple[Near, Near]:
+        """The pairs whose barrier can act on the step ``t`` along ``p`` from ``x``, and those
+        that can meet on it (:meth:`near`, narrowed to the step)."""
+        near = self.near(x, p, t, which)
+        if self.contact is None:
+            return near, near
+        return self.contact.within(x, near, self.contact.motion(p, t))
+
+    def first_contact(self, x: np.ndarray, p: np.ndarray, near: Near) -> np.ndarray:
+        """Per island, the first step along ``p`` from ``x`` at which its boundary touches
+        itself."""
+        if self.contact is None:
+            return np.full(self.n_islands, np.inf)
+        return self.contact.first_contact(x, p, near, self.n_islands)
+
+    def followed(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Islands (n_islands,) bool along whose step ``t`` along ``p`` contact is followed
+        (the others' steps are tested for crossings at their end)."""
+        if self.contact is None:
+            return np.ones(self.n_islands, dtype=bool)
+        return self.contact.followed(self.contact.motion(p, t), self.n_islands) & self.watched
+
+    def crossing(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """Islands (n_islands,) bool of ``which`` whose boundary crosses itself in ``x``
+        (where a long step went past what :meth:`first_contact` follows)."""
+        if self.contact is None:
+            return np.zeros(self.n_islands, dtype=bool)
+        return self.contact.crossing(x, which & ~self.no_contact)
+
+    def refused(self, x: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """Islands (n_islands,) bool of ``which`` whose boundary crosses itself in ``x``
+        (a step that went past what :meth:`first_contact` follows, or an island whose
+        contact is not watched); those not watched are watched from the next step on."""
+        crossed = self.crossing(x, which)
+        self.pending |= crossed & ~self.watched
+        return crossed
+
+    def watch_pending(self, active: np.ndarray) -> np.ndarray:
+        """The islands (n_islands,) bool of ``active`` whose step was refused while their
+        contact was not watched, watched from now on (none without contact)."""
+        newly = self.pending & active
+        self.pending[:] = False
+        if self.contact is None or not newly.any():
+            return np.zeros(self.n_islands, dtype=bool)
+        self.watched = self.watched | newly
+        self._list = None
+        return newly
+
+    def barrier(self, x: np.ndarray, near: Near) -> tuple[np.ndarray, np.ndarray]:
+        """Per island the contact barrier of the pairs ``near`` in ``x`` (0 without
+        contact), and its gradient (n, 2)."""
+        if self.contact is None:
+            return np.zeros(self.n_islands), np.zeros_like(x)
+        return self.contact.energy(x, near, self.n_islands)
