@@ -30,7 +30,7 @@ from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import metrics, parametrize
 from isoparam_addon.solver.mesh.islands import Islands
 from isoparam_addon.solver.mesh.topology import build_topology
-from isoparam_addon.solver.refinement.per_face import FaceFrames, island_energy
+from isoparam_addon.solver.refinement.per_face import FaceFrames, layout_energy
 from isoparam_eval import meshes as ex
 
 
@@ -75,7 +75,7 @@ def slim_on_islands(V, F, cut_edges, iterations: int, tol: float):
 def _energy(frames: FaceFrames, uv) -> float:
     """The island's symmetric Dirichlet energy per unit area (inf if a face folds)."""
     one_island = Islands.labelled(np.zeros(len(frames.area), dtype=np.int64), 1)
-    return float(island_energy(frames, one_island, uv)[0] / frames.area.sum())
+    return float(layout_energy(frames, one_island, uv)[0] / frames.area.sum())
 
 
 def load(name: str):

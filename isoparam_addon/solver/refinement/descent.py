@@ -69,13 +69,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..geometry import det2, safe_divide, signed_double_areas
+from ..geometry import det2, dirichlet_parts, safe_divide, signed_double_areas
 from ..mesh.halfedges import unique_edges
 from ..mesh.islands import Islands, Labelled
 from ..mesh.ordering import nested_dissection
 from ..progress import tick
 from .contact import Contact
-from .per_face import FaceFrames, island_energy, max_step, slim_weights, symmetric_dirichlet
+from .per_face import FaceFrames, layout_energy, max_step, slim_weights, symmetric_dirichlet
 from .proxy import Proxy, quadratic_proxy
 from .start import start_layout
 from .watch import ContactWatch
@@ -335,7 +335,7 @@ class _Descent:
         self.island_area = self.per_face.sum(self.area)
         self.settled = np.zeros(self.islands.n, dtype=bool)
         if settle:
-            E = island_energy(self.frames, self.per_face, self.x)
+            E = layout_energy(self.frames, self.per_face, self.x)
             self.settled = active & ~self.pinned_island() & (E <= (1.0 + self.tol) * 4.0 * self.island_area)
             active = active & ~self.settled
         # what the islands left as they are add to the layout's energy per unit area
@@ -768,10 +768,8 @@ def _finish(d: _Descent, t0: float) -> Refinement:
     out.uv = d.x
     counted = d.live_face | d.per_face.expand(d.settled)  # (islands left as they are: 0)
     out.island_area = d.per_face.sum(np.where(counted, d.area, 0.0))
-    a, b, c, e = d.frames.jacobians(d.x)  # from x: a hand-over leaves J behind
-    fro, det = a * a + b * b + c * c + e * e, det2(a, b, c, e)
     with np.errstate(divide="ignore", invalid="ignore"):
-        inv = fro / (det * det)
+        fro, inv, _ = dirichlet_parts(*d.frames.jacobians(d.x))  # from x: a hand-over leaves J behind
     out.island_parts = (
         d.per_face.sum(np.where(counted, d.area * fro, 0.0)),
         d.per_face.sum(np.where(counted, d.area * inv, 0.0)),

@@ -12,7 +12,7 @@ import scipy.sparse as sp
 from ..geometry import TINY, conformal_parts, det2, dirichlet_parts, frames_of, gradient_coefficients, triangles
 from ..mesh.islands import Labelled
 
-__all__ = ["FaceFrames", "island_energy", "max_step", "slim_weights", "symmetric_dirichlet"]
+__all__ = ["FaceFrames", "layout_energy", "max_step", "slim_weights", "symmetric_dirichlet"]
 
 
 class FaceFrames:
@@ -125,8 +125,10 @@ def slim_weights(J) -> np.ndarray:
     return np.exp2(np.round(8.0 * np.log2(np.minimum(w, 1e150))) / 8.0)
 
 
-def island_energy(frames: FaceFrames, per_face: Labelled, uv: np.ndarray) -> np.ndarray:
-    """Per-island symmetric Dirichlet energy of a layout (inf where a face folds)."""
+def layout_energy(frames: FaceFrames, per_face: Labelled, uv: np.ndarray) -> np.ndarray:
+    """Per island, the symmetric Dirichlet energy of a layout as it is scaled (``sum_f A_f
+    E_f``; :func:`.metrics.island_energy` gives it per area at the best scale), inf where
+    a face folds."""
     a, b, c, d = frames.jacobians(uv)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         e, _ = symmetric_dirichlet(a, b, c, d, frames.area)

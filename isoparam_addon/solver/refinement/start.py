@@ -9,7 +9,7 @@ import numpy as np
 
 from ..geometry import signed_double_areas
 from ..mesh.islands import Islands, Labelled
-from .per_face import FaceFrames, island_energy
+from .per_face import FaceFrames, layout_energy
 from .seeds import lscm, tutte
 
 __all__ = ["start_layout"]
@@ -56,7 +56,7 @@ def start_layout(
         return x, per_face.sum(det <= 0) > 0, none, none
     # per candidate (the seed, a conformal map, a Tutte embedding): energy (inf where it
     # folds or was not made) and whether it overlaps itself
-    energy = [np.where(per_face.sum(det <= 0) > 0, np.inf, island_energy(frames, per_face, x))]
+    energy = [np.where(per_face.sum(det <= 0) > 0, np.inf, layout_energy(frames, per_face, x))]
     overlap = [overlapping]
     candidates = [x]
     want = poor
@@ -74,7 +74,7 @@ def start_layout(
         d = signed_double_areas(y, faces) / area2
         folded = per_face.sum(d <= 0) > 0
         overlaps = never if crossed is None else crossed(y, want)
-        energy.append(np.where(want & ~folded, island_energy(frames, per_face, y), np.inf))
+        energy.append(np.where(want & ~folded, layout_energy(frames, per_face, y), np.inf))
         overlap.append(overlaps)
         candidates.append(y)
         # a Tutte embedding only where the conformal map folds, crushes or overlaps itself
