@@ -130,3 +130,21 @@ def test_the_solver_shows_its_stages():
         modules = sorted(p.name for p in stage.glob("*.py") if p.name != "__init__.py")
         assert modules, stage
         assert [m for m in modules if f"``{m}``" not in doc] == [], f"{stage.name}/__init__.py lists every module"
+
+
+MAX_FUNCTION = 80  # lines, def to last line
+MAX_CLASS = 150
+
+
+def test_functions_and_classes_stay_short():
+    """Every function of the add-on and its scripts fits on a screen or two, every class
+    holds one concept."""
+    long = []
+    for path in sorted([*PACKAGE.rglob("*.py"), *(ROOT / "scripts").rglob("*.py")]):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+                limit = MAX_CLASS if isinstance(node, ast.ClassDef) else MAX_FUNCTION
+                lines = node.end_lineno - node.lineno + 1
+                if lines > limit:
+                    long.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({lines} lines)")
+    assert long == []

@@ -258,7 +258,7 @@ def _angles_and_lengths(points: list[np.ndarray]) -> tuple[np.ndarray, np.ndarra
     edges = [[points[(k + 1) % 3][:, c] - points[k][:, c] for c in range(d)] for k in range(3)]
     e0, e1 = edges[0], edges[1]  # edge k runs from corner k to corner k+1
     if d == 2:
-        double_area = np.abs(e0[0] * e1[1] - e0[1] * e1[0])
+        double_area = np.abs(det2(e0[0], e0[1], e1[0], e1[1]))
     else:  # twice the area vector, shared by the corners
         nx = e0[1] * e1[2] - e0[2] * e1[1]
         ny = e0[2] * e1[0] - e0[0] * e1[2]

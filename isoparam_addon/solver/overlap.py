@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .geometry import TINY, corner_signed_areas
+from .geometry import TINY, corner_signed_areas, det2
 from .mesh.halfedges import pair_keys
 
 __all__ = [
@@ -188,7 +188,7 @@ def shared_area(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     nxt = np.where(np.arange(9)[None, :] + 1 < count[:, None], np.arange(9)[None, :] + 1, 0)
     xn, yn = np.take_along_axis(x, nxt, axis=1), np.take_along_axis(y, nxt, axis=1)
     valid = np.arange(9)[None, :] < count[:, None]
-    return 0.5 * np.abs(np.where(valid, x * yn - xn * y, 0.0).sum(axis=1))
+    return 0.5 * np.abs(np.where(valid, det2(x, xn, y, yn), 0.0).sum(axis=1))
 
 
 def boundary_crossings(uv: np.ndarray, topo) -> np.ndarray:

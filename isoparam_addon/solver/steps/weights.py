@@ -33,7 +33,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
-from ..geometry import NEXT, PREV, TINY
+from ..geometry import NEXT, PREV, TINY, det2
 from .local import Patch
 
 __all__ = ["Flagged", "reconstruction_weights"]
@@ -65,12 +65,12 @@ def _affine_weights(P: np.ndarray, reg: float = 0.0):
     cyy = (qy * qy).sum(axis=1)
     cxy = (qx * qy).sum(axis=1)
     half_trace = 0.5 * (cxx + cyy)
-    det = cxx * cyy - cxy * cxy
+    det = det2(cxx, cxy, cxy, cyy)
     degenerate = ~(det > _DEGENERATE * half_trace**2)
     if reg:
         delta = reg * np.maximum(half_trace, TINY)
         cxx, cyy = cxx + delta, cyy + delta
-        det = cxx * cyy - cxy * cxy
+        det = det2(cxx, cxy, cxy, cyy)
     # an unregularized degenerate row is replaced by the caller; a regularized one can
     # still be singular when all points coincide (C = 0): it gets uniform weights
     good = (det > 0) & ~(degenerate & (reg == 0))
