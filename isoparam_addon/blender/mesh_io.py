@@ -66,64 +66,22 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
     me = obj.data
     nv, ne, nl, nf = len(me.vertices), len(me.edges), len(me.loops), len(me.polygons)
     uv_name = me.uv_layers.active.name if me.uv_layers.active is not None else ""
-    key = obj.active_shape_key
-    if key is not None:  # edit mode shows, and Blender's unwrap flattens, the active key
-        pos = np.empty(3 * nv, dtype=np.float32)
-        key.data.foreach_get("co", pos)
-        pos = pos.reshape(nv, 3).astype(np.float64)
-    else:
-        pos = _attribute(me, ["position"], 3, np.float32, nv).astype(np.float64)
-    if world_space:
-        # the linear part only: an unwrap does not depend on where the object is, and
-        # adding its location costs the digits of a small object far from the origin
-        # (fuzzing: scale 1e-20 at (-2.5, 3.7, 0.1) collapsed every vertex onto one point)
-        M = np.array(obj.matrix_world, dtype=np.float64)
-        pos = pos @ M[:3, :3].T
+    pos = _positions(obj, world_space)
     corner_vert = _attribute(me, [".corner_vert"], 1, np.int32, nl)
     edge_verts = _attribute(me, [".edge_verts"], 2, np.int32, ne)
-    select = _attribute(me, [".select_poly"], 1, bool, nf)
-    hide = _attribute(me, [".hide_poly"], 1, bool, nf)
-    chosen = (np.zeros(nf, bool) if select is None else select) & (True if hide is None else ~hide)
-    if every_face:
-        chosen = np.ones(nf, dtype=bool)
+    chosen = np.ones(nf, dtype=bool) if every_face else _selected_faces(me)
     seam = _attribute(me, ["uv_seam", ".uv_seam"], 1, bool, ne)
     if seam is None:  # the attribute is created with the first seam: none yet
         seam = np.zeros(ne, dtype=bool)
     material = _attribute(me, ["material_index"], 1, np.int32, nf)
-    uv = np.zeros((nl, 2), dtype=np.float32)
-    locked = np.zeros(nl, dtype=bool)
-    pins = None
-    if uv_name:
-        flat = np.empty(2 * nl, dtype=np.float32)
-        me.uv_layers[uv_name].uv.foreach_get("vector", flat)
-        uv = flat.reshape(nl, 2)
-        pins = _attribute(me, [f".pn.{uv_name}"], 1, bool, nl)
-        if pins is not None:
-            locked |= pins
-        if uv_selection_locks:
-            picked = _attribute(me, [".uv_select_vert", f".vs.{uv_name}"], 1, bool, nl)
-            if picked is not None:
-                locked |= ~picked
-    tri_loops, tri_poly, loop_total = triangles(me)
-    keep = chosen[tri_poly]
-    tri_loops, tri_poly = tri_loops[keep], tri_poly[keep]
+    uv, locked, pins = _corner_uvs(me, uv_name, uv_selection_locks)
+    tri_loops, tri_poly, inner = _chosen_triangles(me, chosen)
     tri_verts = corner_vert[tri_loops]
-    # a triangle side is a diagonal when its corners are not neighbours around the face
-    if (loop_total == 3).all():  # triangles only: no diagonals
-        inner = np.zeros(tri_loops.shape, dtype=bool)
-    else:
-        inner = inner_sides(tri_loops, tri_poly, loop_total)
     used = np.zeros(nv, dtype=bool)
     used[tri_verts.ravel()] = True
     vert_ids = np.flatnonzero(used)
     local = np.cumsum(used) - 1
-    # seams on edges of the unwrapped faces only, as Blender's unwrap: a loose seam edge, or
-    # one of another face, along a quad's diagonal would cut the quad in two
-    if seam.any():
-        on_face = np.zeros(ne, dtype=bool)
-        on_face[_attribute(me, [".corner_edge"], 1, np.int32, nl)[tri_loops.ravel()]] = True
-        seam &= on_face
-    seam_edges = edge_verts[seam]
+    seam_edges = edge_verts[_on_faces(me, seam, tri_loops)]
     return Selection(
         name=obj.name,
         V=pos[vert_ids],
@@ -139,6 +97,84 @@ def read_selection(obj, *, world_space: bool, uv_selection_locks: bool, every_fa
         face_material=(np.zeros(len(tri_poly), np.int64) if material is None else material[tri_poly].astype(np.int64)),
         uv_name=uv_name,
     )
+
+
+def _positions(obj, world_space: bool) -> np.ndarray:
+    """The vertex positions (n, 3) float64 the unwrap flattens: of the active shape key if
+    there is one (edit mode shows, and Blender's unwrap flattens, that one), in object
+    space, or with ``world_space`` under the object's linear transform."""
+    me = obj.data
+    nv = len(me.vertices)
+    key = obj.active_shape_key
+    if key is not None:
+        pos = np.empty(3 * nv, dtype=np.float32)
+        key.data.foreach_get("co", pos)
+        pos = pos.reshape(nv, 3).astype(np.float64)
+    else:
+        pos = _attribute(me, ["position"], 3, np.float32, nv).astype(np.float64)
+    if world_space:
+        # the linear part only: an unwrap does not depend on where the object is, and
+        # adding its location costs the digits of a small object far from the origin
+        # (fuzzing: scale 1e-20 at (-2.5, 3.7, 0.1) collapsed every vertex onto one point)
+        M = np.array(obj.matrix_world, dtype=np.float64)
+        pos = pos @ M[:3, :3].T
+    return pos
+
+
+def _selected_faces(me) -> np.ndarray:
+    """The faces (f,) bool that are selected and not hidden."""
+    nf = len(me.polygons)
+    select = _attribute(me, [".select_poly"], 1, bool, nf)
+    hide = _attribute(me, [".hide_poly"], 1, bool, nf)
+    return (np.zeros(nf, bool) if select is None else select) & (True if hide is None else ~hide)
+
+
+def _corner_uvs(me, uv_name: str, uv_selection_locks: bool):
+    """The UVs (corners, 2) float32 of the UV map ``uv_name`` (zero without one), the
+    corners (corners,) bool whose UV must not move (pinned, or with ``uv_selection_locks``
+    not UV-selected), and the pins (corners,) bool, None if the map has no pin attribute."""
+    nl = len(me.loops)
+    uv = np.zeros((nl, 2), dtype=np.float32)
+    locked = np.zeros(nl, dtype=bool)
+    if not uv_name:
+        return uv, locked, None
+    flat = np.empty(2 * nl, dtype=np.float32)
+    me.uv_layers[uv_name].uv.foreach_get("vector", flat)
+    uv = flat.reshape(nl, 2)
+    pins = _attribute(me, [f".pn.{uv_name}"], 1, bool, nl)
+    if pins is not None:
+        locked |= pins
+    if uv_selection_locks:
+        picked = _attribute(me, [".uv_select_vert", f".vs.{uv_name}"], 1, bool, nl)
+        if picked is not None:
+            locked |= ~picked
+    return uv, locked, pins
+
+
+def _chosen_triangles(me, chosen: np.ndarray):
+    """Blender's triangles of the ``chosen`` (f,) bool faces: their corners (t, 3) int64,
+    their faces (t,) int64, and which of their sides (t, 3) bool are diagonals, inside
+    their face (side k runs from corner k to corner k + 1)."""
+    tri_loops, tri_poly, loop_total = triangles(me)
+    keep = chosen[tri_poly]
+    tri_loops, tri_poly = tri_loops[keep], tri_poly[keep]
+    # a triangle side is a diagonal when its corners are not neighbours around the face
+    if (loop_total == 3).all():  # triangles only: no diagonals
+        inner = np.zeros(tri_loops.shape, dtype=bool)
+    else:
+        inner = inner_sides(tri_loops, tri_poly, loop_total)
+    return tri_loops, tri_poly, inner
+
+
+def _on_faces(me, seam: np.ndarray, tri_loops: np.ndarray) -> np.ndarray:
+    """The ``seam`` (e,) bool edges that are sides of the triangles ``tri_loops`` (t, 3),
+    as Blender's unwrap takes them: a loose seam edge, or one of another face, along a
+    quad's diagonal would cut the quad in two."""
+    if not seam.any():
+        return seam
+    on_face = np.zeros(len(seam), dtype=bool)
+    on_face[_attribute(me, [".corner_edge"], 1, np.int32, len(me.loops))[tri_loops.ravel()]] = True
+    return seam & on_face
 
 
 def mark_seams(mesh, edges: np.ndarray) -> int:

@@ -6,13 +6,15 @@ kernels it places with (similarity fits, shelves) are :mod:`.placement`'s.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from ..geometry import TINY, corner_signed_areas
 from ..mesh.halfedges import pair_keys
-from ..mesh.islands import Islands
+from ..mesh.islands import Islands, Labelled
 from ..overlap import uv_points
 from .placement import Similarity, apply_similarity, boxes, choose, identity, rotated, shelves, similarity_fit
 
@@ -114,68 +116,167 @@ def place_in_uv_space(
         uv = _into_unit_square(uv, margin, margin_share)
     corners = Islands.labelled(np.repeat(island, 3), n)  # rows: the (t * 3) corners
     held = corners.sum(locked.ravel().astype(np.float64)) > 0
-    # old UVs that are not finite, or far out, are no layout to keep or fit to (the
-    # operator refuses such pins; a corner locked by the UV selection keeps its value)
-    near = (np.abs(old) <= FAR_UV).all(axis=2)
-    usable = np.bincount(island, ~near.all(axis=1), minlength=n) == 0
-    w_lock = (locked & near).ravel()
-    ref = np.where(near[..., None], old, 0.0).reshape(-1, 2)  # the old UVs fitted to (kept ones: ``old``)
-    every = np.ones(len(ref))
-    has_old_area = np.bincount(island, np.abs(corner_signed_areas(ref.reshape(-1, 3, 2))), minlength=n) > 0
+    before = _OldUVs.of(old, island, n)
     if in_place:
-        # rotation from the best fit (a group of several islands keeps its shelves
-        # upright), size from the old area (texel density kept), centroid onto the old one
-        group, k, one_old = _old_groups(island, n, corner_vertex, old, held)
-        several = np.bincount(group, minlength=k) > 1
-        by_group = Islands.labelled(np.repeat(group[island], 3), k)
-        old_lo, old_hi = boxes(ref, by_group)
-        if several.any():  # on shelves shaped as the old island's box
-            with np.errstate(divide="ignore", invalid="ignore"):
-                aspect = np.nan_to_num((old_hi - old_lo)[:, 0] / (old_hi - old_lo)[:, 1], nan=1.0, posinf=1.0)
-            uv = _shelved(uv, island, n, group, several[group], margin or _GROUP_GAP, aspect)
-        turn = similarity_fit(uv.reshape(-1, 2), ref, by_group, every, scale=False)
-        a_new = np.bincount(group[island], np.abs(corner_signed_areas(uv)), minlength=k)
-        a_old = np.bincount(group[island], np.abs(corner_signed_areas(ref.reshape(-1, 3, 2))), minlength=k)
-        usable_group = np.bincount(group, ~usable, minlength=k) == 0
-        held_group = np.bincount(group, held, minlength=k) > 0
-        fit = turn.ok & ~held_group & usable_group & one_old & (a_old > 0) & (a_new > 0)
-        s = np.where(fit & (not world_scale), np.sqrt(a_old / np.where(a_new > 0, a_new, 1.0)), 1.0)
-        c_new, c_old = by_group.mean(uv.reshape(-1, 2)), by_group.mean(ref)
-        if several.any():  # a group's shelves stay within the old island's box, centred on it
-            new_lo, new_hi = boxes(uv.reshape(-1, 2), by_group)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                inside = np.nan_to_num(np.min((old_hi - old_lo) / (new_hi - new_lo), axis=1), nan=np.inf)
-            s = np.where(several & fit & (not world_scale), np.minimum(s, inside), s)
-            c_new = np.where(several[:, None], 0.5 * (new_lo + new_hi), c_new)
-            c_old = np.where(several[:, None], 0.5 * (old_lo + old_hi), c_old)
-        angle = np.where(fit & ~several, turn.angle, 0.0)
-        shift = np.where(fit[:, None], c_old - s[:, None] * rotated(c_new, angle), 0.0)
-        moved = Similarity(s, angle, shift, fit)
-        uv = apply_similarity(uv.reshape(-1, 2), by_group, moved).reshape(-1, 3, 2)
-        fresh = ~fit[group] & ~held  # no old place to go to: laid out anew
-        if fresh.any():
-            # beside the islands that stay: where they went, and the held ones' old UVs
-            there = np.where(near[..., None] & held[island][:, None, None], old, uv)
-            uv = _beside(uv, island, n, fresh, there, near, s[fit], world_scale, margin or _GROUP_GAP)
+        uv = _in_place(uv, island, n, before, held, corner_vertex, world_scale, margin or _GROUP_GAP)
     if held.any():
-        flat = uv.reshape(-1, 2)
-        # pins on one UV (one pinned vertex, say) fix no rotation: such an island turns as
-        # its old UVs lie, so pinning a vertex and unwrapping again does not spin it (after
-        # a pack that rotated it, or a turn by hand)
-        spread = similarity_fit(flat, ref, corners, w_lock, scale=False).ok
-        lie = similarity_fit(flat, ref, corners, every, scale=False)
-        turn = held & ~spread & lie.ok & usable & has_old_area
-        if turn.any():
-            only = Similarity(np.ones(n), np.where(turn, lie.angle, 0.0), np.zeros((n, 2)), turn)
-            flat = apply_similarity(flat, corners, only)
-        onto = similarity_fit(flat, ref, corners, w_lock, scale=not world_scale)
-        flat = apply_similarity(flat, corners, choose(held, onto, identity(n)))
-        uv = flat.reshape(-1, 3, 2)
-        uv[locked] = old[locked]
+        uv = _onto_pins(uv, corners, held, locked, before, world_scale)
     return uv, held
 
 
 _GROUP_GAP = 0.02  # between islands shelved together in place, as a share of their size
+
+
+@dataclass(frozen=True)
+class _OldUVs:
+    """The UVs before the unwrap, as the placement fits to them.
+
+    Attributes
+    ----------
+    uv : (t, 3, 2) float64
+        As given.
+    near : (t, 3) bool
+        Corners whose old UV is a layout to keep or fit to: finite and within ``FAR_UV``
+        (the operator refuses pins that are not; a corner locked by the UV selection keeps
+        its value whatever it is).
+    ref : (t * 3, 2) float64
+        The old UVs fitted to, a row per corner: ``uv`` where ``near``, else 0.
+    usable : (n,) bool
+        Islands whose old UVs are all ``near``.
+    has_area : (n,) bool
+        Islands whose old UVs cover some area (a mesh never unwrapped has none).
+    """
+
+    uv: np.ndarray
+    near: np.ndarray
+    ref: np.ndarray
+    usable: np.ndarray
+    has_area: np.ndarray
+
+    @classmethod
+    def of(cls, old, island, n) -> _OldUVs:
+        """The old UVs (t, 3, 2) of the triangles of ``island`` (t,), n islands."""
+        near = (np.abs(old) <= FAR_UV).all(axis=2)
+        usable = np.bincount(island, ~near.all(axis=1), minlength=n) == 0
+        ref = np.where(near[..., None], old, 0.0).reshape(-1, 2)
+        has_area = np.bincount(island, np.abs(corner_signed_areas(ref.reshape(-1, 3, 2))), minlength=n) > 0
+        return cls(old, near, ref, usable, has_area)
+
+
+@dataclass(frozen=True)
+class _Groups:
+    """The islands put in place together (see :func:`_old_groups`), ``count`` groups.
+
+    Attributes
+    ----------
+    label : (n,) int64
+        Group of each island.
+    count : int
+    one_old : (count,) bool
+        Groups whose faces lay in one island of the old UVs.
+    several : (count,) bool
+        Groups of more than one island (shelved, and put in the old island's box).
+    corners : Labelled
+        The (t * 3) corners, by group.
+    old_lo, old_hi : (count, 2) float64
+        Box of each group's old UVs.
+    """
+
+    label: np.ndarray
+    count: int
+    one_old: np.ndarray
+    several: np.ndarray
+    corners: Labelled
+    old_lo: np.ndarray
+    old_hi: np.ndarray
+
+    @classmethod
+    def of(cls, island, n, corner_vertex, before: _OldUVs, held) -> _Groups:
+        """The groups of the n islands (``island`` (t,): of each triangle)."""
+        group, k, one_old = _old_groups(island, n, corner_vertex, before.uv, held)
+        several = np.bincount(group, minlength=k) > 1
+        corners = Islands.labelled(np.repeat(group[island], 3), k)
+        old_lo, old_hi = boxes(before.ref, corners)
+        return cls(group, k, one_old, several, corners, old_lo, old_hi)
+
+    def old_aspect(self) -> np.ndarray:
+        """Width / height (count,) of each group's old box; 1 where it has no extent."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.nan_to_num(
+                (self.old_hi - self.old_lo)[:, 0] / (self.old_hi - self.old_lo)[:, 1], nan=1.0, posinf=1.0
+            )
+
+
+def _in_place(uv, island, n, before: _OldUVs, held, corner_vertex, world_scale: bool, gap_share: float):
+    """``uv`` (t, 3, 2) with every group of islands put where its old UVs were
+    (:func:`_onto_old`), a group of several on shelves shaped as its old box, ``gap_share``
+    of its size apart; islands with no old place to go to are laid out anew beside the
+    ones that stay (:func:`_beside`). Held islands are left to :func:`_onto_pins`."""
+    groups = _Groups.of(island, n, corner_vertex, before, held)
+    if groups.several.any():  # on shelves shaped as the old island's box
+        in_several = groups.several[groups.label]
+        uv = _shelved(uv, island, n, groups.label, in_several, gap_share, groups.old_aspect())
+    moved = _onto_old(uv, island, groups, before, held, world_scale)
+    uv = apply_similarity(uv.reshape(-1, 2), groups.corners, moved).reshape(-1, 3, 2)
+    fresh = ~moved.ok[groups.label] & ~held  # no old place to go to: laid out anew
+    if fresh.any():
+        # beside the islands that stay: where they went, and the held ones' old UVs
+        there = np.where(before.near[..., None] & held[island][:, None, None], before.uv, uv)
+        uv = _beside(uv, island, n, fresh, there, before.near, moved.scale[moved.ok], world_scale, gap_share)
+    return uv
+
+
+def _onto_old(uv, island, groups: _Groups, before: _OldUVs, held, world_scale: bool) -> Similarity:
+    """Per group, the similarity that puts ``uv`` (t, 3, 2) where the old UVs were: turned
+    as they lie (a group of several islands keeps its shelves upright), at their area
+    (texel density kept; the own size with ``world_scale``), centroid onto centroid, or
+    for a group of several, box centre onto box centre and no larger than the old box.
+
+    ``ok`` where the group has such a place: no held island, every old UV usable, all its
+    faces from one old island, and area both in the old UVs and in the new ones."""
+    g = groups
+    turn = similarity_fit(uv.reshape(-1, 2), before.ref, g.corners, np.ones(len(before.ref)), scale=False)
+    a_new = np.bincount(g.label[island], np.abs(corner_signed_areas(uv)), minlength=g.count)
+    a_old = np.bincount(g.label[island], np.abs(corner_signed_areas(before.ref.reshape(-1, 3, 2))), minlength=g.count)
+    usable_group = np.bincount(g.label, ~before.usable, minlength=g.count) == 0
+    held_group = np.bincount(g.label, held, minlength=g.count) > 0
+    fit = turn.ok & ~held_group & usable_group & g.one_old & (a_old > 0) & (a_new > 0)
+    s = np.where(fit & (not world_scale), np.sqrt(a_old / np.where(a_new > 0, a_new, 1.0)), 1.0)
+    c_new, c_old = g.corners.mean(uv.reshape(-1, 2)), g.corners.mean(before.ref)
+    if g.several.any():  # a group's shelves stay within the old island's box, centred on it
+        new_lo, new_hi = boxes(uv.reshape(-1, 2), g.corners)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inside = np.nan_to_num(np.min((g.old_hi - g.old_lo) / (new_hi - new_lo), axis=1), nan=np.inf)
+        s = np.where(g.several & fit & (not world_scale), np.minimum(s, inside), s)
+        c_new = np.where(g.several[:, None], 0.5 * (new_lo + new_hi), c_new)
+        c_old = np.where(g.several[:, None], 0.5 * (g.old_lo + g.old_hi), c_old)
+    angle = np.where(fit & ~g.several, turn.angle, 0.0)
+    shift = np.where(fit[:, None], c_old - s[:, None] * rotated(c_new, angle), 0.0)
+    return Similarity(s, angle, shift, fit)
+
+
+def _onto_pins(uv, corners: Labelled, held, locked, before: _OldUVs, world_scale: bool):
+    """``uv`` (t, 3, 2) with every ``held`` (n,) island fitted onto the old UVs of its
+    ``locked`` (t, 3) corners (turned, and scaled unless ``world_scale``), and the locked
+    corners given their old UVs exactly."""
+    n = corners.n
+    flat = uv.reshape(-1, 2)
+    w_lock = (locked & before.near).ravel()
+    every = np.ones(len(before.ref))
+    # pins on one UV (one pinned vertex, say) fix no rotation: such an island turns as
+    # its old UVs lie, so pinning a vertex and unwrapping again does not spin it (after
+    # a pack that rotated it, or a turn by hand)
+    spread = similarity_fit(flat, before.ref, corners, w_lock, scale=False).ok
+    lie = similarity_fit(flat, before.ref, corners, every, scale=False)
+    turn = held & ~spread & lie.ok & before.usable & before.has_area
+    if turn.any():
+        only = Similarity(np.ones(n), np.where(turn, lie.angle, 0.0), np.zeros((n, 2)), turn)
+        flat = apply_similarity(flat, corners, only)
+    onto = similarity_fit(flat, before.ref, corners, w_lock, scale=not world_scale)
+    flat = apply_similarity(flat, corners, choose(held, onto, identity(n)))
+    uv = flat.reshape(-1, 3, 2)
+    uv[locked] = before.uv[locked]
+    return uv
 
 
 def _old_groups(island, n, corner_vertex, old, held):

@@ -129,76 +129,143 @@ def build_topology(vertices, faces, seams=None, split_nonmanifold: bool = True, 
     for validation and renumbers nothing.
     """
     V, F, he0, fan0, defects = check(vertices, faces, split_nonmanifold)
-    n, m = len(V), len(F)
+    n = len(V)
     seam = edge_mask(he0, n, seams)
     inner = edge_mask(he0, n, inner_edges, "inner_edges")
     Fs, vertex_of, he = _split_along_seams(F, n, he0, seam, defects.any)
-    face_island = face_components(m, he, np.zeros(he.n_edges, dtype=bool))
+    face_island = face_components(len(F), he, np.zeros(he.n_edges, dtype=bool))
     n_islands = int(face_island.max()) + 1
     Vu = V / unit_of(V)  # areas and lengths below only compare with each other
-    area = None  # only for orienting
-    # the fans of validation were walked because F was consistently oriented
-    if (Fs is F and fan0 is not None) or he.consistent(Fs):
-        flip, orientable = np.zeros(m, dtype=bool), np.ones(n_islands, dtype=bool)
-    else:
-        area = face_areas(Vu, F)
-        flip, orientable = orientation(Fs, he, face_island, n_islands, area)
-    chi, n_loops = _island_counts(Fs, len(vertex_of), he, face_island, n_islands)
-    disk = orientable & (chi == 1) & (n_loops == 1)
-    cut_edges = np.zeros((0, 2), dtype=np.int64)
-    reasons = _Reasons(~disk, orientable, chi, n_loops)
-    if not disk.all():
-        keep = np.zeros(n, dtype=bool)
-        if avoid is not None:
-            ids = np.asarray(avoid, dtype=np.int64).ravel()
-            keep[ids[(ids >= 0) & (ids < n)]] = True
-        Fs, vertex_of, flip, cut_edges = cut_to_disks(
-            Vu, Fs, vertex_of, he, he0, face_island, ~disk, area, inner, flip, keep
+    flip, orientable, area = _orientation(Vu, F, Fs, fan0, he, face_island, n_islands)
+    shapes = _Shapes.of(Fs, len(vertex_of), he, face_island, n_islands, orientable)
+    cut = _Cut(Fs, vertex_of, he, flip, np.zeros((0, 2), dtype=np.int64))
+    if not shapes.disk.all():
+        cut = _cut_to_disks(Vu, cut, he0, face_island, ~shapes.disk, area, inner, avoid)
+    return V, F, _topology(F, fan0, cut, face_island, n_islands, shapes, defects)
+
+
+@dataclass
+class _Cut:
+    """The mesh over split vertices, as seams, defects and automatic cuts left it.
+
+    Attributes
+    ----------
+    faces : (m, 3) int64
+        Split-vertex indices, in the input corner order.
+    vertex_of : (ns,) int64
+        Input vertex of each split vertex.
+    he : HalfEdges or None
+        Half-edges of ``faces``; None once a cut has made them stale.
+    flip : (m,) bool
+        Faces whose corner order is reversed to orient their island.
+    cut_edges : (k, 2) int64
+        Input-vertex pairs of the edges cut automatically.
+    """
+
+    faces: np.ndarray
+    vertex_of: np.ndarray
+    he: HalfEdges | None
+    flip: np.ndarray
+    cut_edges: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Shapes:
+    """Which islands are disks, and why the others are not (an island can fail in several
+    ways).
+
+    Attributes
+    ----------
+    disk : (n_islands,) bool
+        Orientable, Euler characteristic 1 and one boundary loop.
+    closed, handles, holes, nonorientable : (k,) int64
+        The islands to cut that have no boundary, that have handles, that have more than
+        one boundary loop; and the islands that are not orientable.
+    """
+
+    disk: np.ndarray
+    closed: np.ndarray
+    handles: np.ndarray
+    holes: np.ndarray
+    nonorientable: np.ndarray
+
+    @classmethod
+    def of(cls, Fs, ns, he, face_island, n_islands, orientable) -> _Shapes:
+        """The shapes of the islands of ``Fs`` (m, 3) over ``ns`` vertices."""
+        chi, n_loops = _island_counts(Fs, ns, he, face_island, n_islands)
+        disk = orientable & (chi == 1) & (n_loops == 1)
+        cut = ~disk
+        return cls(
+            disk=disk,
+            closed=np.flatnonzero(cut & (n_loops == 0)),
+            handles=np.flatnonzero(cut & orientable & (2 - chi - n_loops > 0)),
+            holes=np.flatnonzero(cut & (n_loops > 1)),
+            nonorientable=np.flatnonzero(~orientable),
         )
-        he = None  # rebuilt below, once the faces are numbered and oriented
-    Fs, vertex_of, vertex_island, he = _number_by_island(Fs, vertex_of, face_island, he)
+
+
+def _orientation(Vu, F, Fs, fan0, he: HalfEdges, face_island, n_islands):
+    """Faces to turn (m,) bool so that every island is consistently oriented, which
+    islands can be (n_islands,) bool, and the face areas (m,) float64 of ``Vu`` (n, 3)
+    that orienting weighed (None when every island already is: the fans of validation,
+    ``fan0``, were walked because ``F`` was, and the seams kept the faces)."""
+    if (Fs is F and fan0 is not None) or he.consistent(Fs):
+        return np.zeros(len(F), dtype=bool), np.ones(n_islands, dtype=bool), None
+    area = face_areas(Vu, F)
+    flip, orientable = orientation(Fs, he, face_island, n_islands, area)
+    return flip, orientable, area
+
+
+def _cut_to_disks(Vu, cut: _Cut, he0: HalfEdges, face_island, to_cut, area, inner, avoid) -> _Cut:
+    """``cut`` with the islands flagged in ``to_cut`` (n_islands,) bool cut into disks
+    (:func:`.cutgraph.cut_to_disks`), its cuts rooted away from the ``avoid`` vertices
+    where they can be; the half-edges are left to be rebuilt once the faces are
+    numbered and oriented."""
+    n = len(Vu)
+    keep = np.zeros(n, dtype=bool)
+    if avoid is not None:
+        ids = np.asarray(avoid, dtype=np.int64).ravel()
+        keep[ids[(ids >= 0) & (ids < n)]] = True
+    Fs, vertex_of, flip, cut_edges = cut_to_disks(
+        Vu, cut.faces, cut.vertex_of, cut.he, he0, face_island, to_cut, area, inner, cut.flip, keep
+    )
+    return _Cut(Fs, vertex_of, None, flip, cut_edges)
+
+
+def _topology(F, fan0, cut: _Cut, face_island, n_islands: int, shapes: _Shapes, defects: Defects) -> Topology:
+    """The :class:`Topology` of the ``cut`` mesh: split vertices numbered island by island,
+    faces oriented, half-edges and fans (validation's ``fan0`` of ``F`` reused when the
+    faces are still ``F``). Islands that were cut are checked to be disks now."""
+    Fs, vertex_of, vertex_island, he = _number_by_island(cut.faces, cut.vertex_of, face_island, cut.he)
     ns = len(vertex_of)
+    flip = cut.flip
     oriented = np.where(flip[:, None], Fs[:, ::-1], Fs) if flip.any() else Fs
     he_oriented = he if he is not None and oriented is Fs else HalfEdges(oriented, ns)
-    if not disk.all():
+    if not shapes.disk.all():
         chi, n_loops = _island_counts(oriented, ns, he_oriented, face_island, n_islands)
         still = np.flatnonzero((chi != 1) | (n_loops != 1))
         if still.size:  # pragma: no cover - a bug guard, the cut graph makes disks
             raise SolverError(f"cutting islands {still.tolist()} did not give disks")
     unchanged = fan0 is not None and oriented is F
     fan = fan0 if unchanged else fans(oriented, he_oriented.twin, ns)
-    return (
-        V,
-        F,
-        Topology(
-            faces=oriented,
-            he=he_oriented,
-            fans=fan,
-            corner_vertex=Fs,
-            vertex_of=vertex_of,
-            face_island=face_island,
-            vertex_island=vertex_island,
-            n_islands=n_islands,
-            turned=flip,
-            cut_edges=cut_edges,
-            cut_islands=np.flatnonzero(~disk),
-            closed_islands=reasons.closed,
-            handle_islands=reasons.handles,
-            multi_boundary_islands=reasons.holes,
-            nonorientable_islands=reasons.nonorientable,
-            defects=defects,
-        ),
+    return Topology(
+        faces=oriented,
+        he=he_oriented,
+        fans=fan,
+        corner_vertex=Fs,
+        vertex_of=vertex_of,
+        face_island=face_island,
+        vertex_island=vertex_island,
+        n_islands=n_islands,
+        turned=flip,
+        cut_edges=cut.cut_edges,
+        cut_islands=np.flatnonzero(~shapes.disk),
+        closed_islands=shapes.closed,
+        handle_islands=shapes.handles,
+        multi_boundary_islands=shapes.holes,
+        nonorientable_islands=shapes.nonorientable,
+        defects=defects,
     )
-
-
-class _Reasons:
-    """Why the islands flagged in ``cut`` (n_islands,) bool are cut: (k,) int64 each."""
-
-    def __init__(self, cut, orientable, chi, n_loops):
-        self.closed = np.flatnonzero(cut & (n_loops == 0))
-        self.handles = np.flatnonzero(cut & orientable & (2 - chi - n_loops > 0))
-        self.holes = np.flatnonzero(cut & (n_loops > 1))
-        self.nonorientable = np.flatnonzero(~orientable)
 
 
 def _split_along_seams(F, n: int, he0: HalfEdges, seam: np.ndarray, defects: bool):

@@ -407,66 +407,140 @@ def spectral_embedding(
         A0 = L.tocoo()
         plan = plan_elimination(X, np.stack([A0.row, A0.col], axis=1), islands)
     pls = _AnchoredLeastSquares(L, islands, plan)
-    H = pls.H
     t1 = time.perf_counter()
-    Y, LY, mu, _ = _ritz(L, _basis([H] if start is None else [start, H], islands), islands, block)
-    done = np.zeros(islands.n, dtype=bool)
-    change = np.full(islands.n, np.inf)
-    Y_prev = np.zeros_like(Y)
-    iterations = 0
-    rest = None
-    for iterations in range(1, max_iter + 1):  # inverse iterations, a handful per mesh  # noqa: B007
-        tick(iterations / (iterations + 4))
-        # preconditioned residual with the exact inverse on the free block
-        R = L.T @ LY - Y * np.where(np.isfinite(mu), mu, 0.0)[islands.label, : Y.shape[1]]
-        W = pls.solve_mff(R)
-        Y_new, LY_new, mu_new, floor = _ritz(L, _basis([Y, H, W, Y_prev], islands), islands, block + 1)
-        # a null space of more than two non-constant dimensions (measured: two Smart UV
-        # islands of a subdivided Suzanne, four zero singular values of L each) makes the
-        # pair ambiguous; the iteration would wander inside it to max_iter. The Ritz values
-        # bound the eigenvalues from above, so a third one at rounding level proves it.
-        ambiguous = np.all(mu_new <= np.maximum(floor, _NULL)[:, None], axis=1)
-        Y_new, LY_new, mu_new = Y_new[:, :block], LY_new[:, :block], mu_new[:, :block]
-        Y_prev = Y
-        cross = islands.gram(Y[:, :2], Y_new[:, :2])
-        moved = Y_new[:, :2] - islands.apply(Y[:, :2], cross)
-        step = np.sqrt(islands.sum(moved**2).sum(axis=1))
-        live = ~done
-        # linear convergence: the next step would move about step * (step / last step),
-        # once the iteration is in its linear regime: a rate measured from a large last
-        # step is not trusted (200k-vertex developable strips: steps 0.63 then 2e-5
-        # "predicted" 6e-10 and stopped at an edge error of 4e-8; one more step: 6e-10)
-        last = np.where(np.isfinite(change), change, 1.0)
-        linear = np.isfinite(change) & (step < change) & (last < _LINEAR)  # (so last > step >= 0)
-        rate = np.where(linear, step / np.where(linear, last, 1.0), 1.0)
-        predicted = step * rate
-        change[live] = step[live]
-        keep_old = islands.expand(done)[:, None]
-        Y = np.where(keep_old, Y, Y_new)
-        LY = np.where(keep_old, LY, LY_new)
-        mu[live] = mu_new[live]
-        done |= (step < tol) | (predicted < tol) | ambiguous
-        if done.all():
-            break
-        if islands.size[~done].sum() <= _HANDOVER * len(Y) and iterations < max_iter:
-            rest = _go_on_alone(L, X, islands, ~done, Y, tol, max_iter - iterations, block)
-            break
+    state = _Iteration.start(L, pls.H, islands, block, start)
+    rest = _iterate(L, X, islands, pls, state, tol, max_iter, block)
     t2 = time.perf_counter()
-    coords = Y[:, :2] * np.sqrt(islands.expand(islands.size.astype(np.float64)))[:, None]
+    timings = _timings(pls.timings, plan.seconds if own_plan else 0.0, t1 - t0, t2 - t1, rest)
+    return _embedding(state, islands, rest, timings)
+
+
+@dataclass
+class _Iteration:
+    """The state of the block inverse iteration of :func:`spectral_embedding`.
+
+    Attributes
+    ----------
+    Y : (n, block) float64
+        The current Ritz vectors, orthonormal and centred per island.
+    LY : (n, block) float64
+        ``L Y``.
+    mu : (n_islands, block) float64
+        Their Ritz values.
+    previous : (n, block) float64
+        ``Y`` before the last step (zero before the first), kept in the search space.
+    done : (n_islands,) bool
+    change : (n_islands,) float64
+        How far the last step moved the subspace (sine of the angle; ``inf`` before it).
+    iterations : int
+    """
+
+    Y: np.ndarray
+    LY: np.ndarray
+    mu: np.ndarray
+    previous: np.ndarray
+    done: np.ndarray
+    change: np.ndarray
+    iterations: int = 0
+
+    @classmethod
+    def start(cls, L, H: np.ndarray, islands: Islands, block: int, start: np.ndarray | None) -> _Iteration:
+        """The ``block`` best vectors in the span of the pinned least-squares basis ``H``
+        (and of ``start``, if given)."""
+        Y, LY, mu, _ = _ritz(L, _basis([H] if start is None else [start, H], islands), islands, block)
+        return cls(Y, LY, mu, np.zeros_like(Y), np.zeros(islands.n, dtype=bool), np.full(islands.n, np.inf))
+
+
+def _iterate(L, X, islands: Islands, pls: _AnchoredLeastSquares, state: _Iteration, tol, max_iter, block):
+    """Inverse iterations on ``state`` until every island is done or ``max_iter``; but once
+    the islands still iterating hold at most ``_HANDOVER`` of the rows, they go on alone:
+    returns that sub-problem (see :func:`_go_on_alone`), or None."""
+    for iterations in range(1, max_iter + 1):  # inverse iterations, a handful per mesh
+        tick(iterations / (iterations + 4))
+        state.iterations = iterations
+        _inverse_iteration(L, pls, islands, state, tol, block)
+        if state.done.all():
+            return None
+        if islands.size[~state.done].sum() <= _HANDOVER * len(state.Y) and iterations < max_iter:
+            return _go_on_alone(L, X, islands, ~state.done, state.Y, tol, max_iter - iterations, block)
+    return None
+
+
+def _inverse_iteration(L, pls: _AnchoredLeastSquares, islands: Islands, state: _Iteration, tol, block) -> None:
+    """One step of block inverse iteration with Rayleigh-Ritz, in place: the islands not yet
+    done take the new vectors, and are done once the subspace moved, or is predicted to
+    move, by less than ``tol``, or once their pair is ambiguous."""
+    Y, LY, mu = state.Y, state.LY, state.mu
+    # preconditioned residual with the exact inverse on the free block
+    R = L.T @ LY - Y * np.where(np.isfinite(mu), mu, 0.0)[islands.label, : Y.shape[1]]
+    W = pls.solve_mff(R)
+    Y_new, LY_new, mu_new, floor = _ritz(L, _basis([Y, pls.H, W, state.previous], islands), islands, block + 1)
+    # a null space of more than two non-constant dimensions (measured: two Smart UV
+    # islands of a subdivided Suzanne, four zero singular values of L each) makes the
+    # pair ambiguous; the iteration would wander inside it to max_iter. The Ritz values
+    # bound the eigenvalues from above, so a third one at rounding level proves it.
+    ambiguous = np.all(mu_new <= np.maximum(floor, _NULL)[:, None], axis=1)
+    Y_new, LY_new, mu_new = Y_new[:, :block], LY_new[:, :block], mu_new[:, :block]
+    step = _moved(Y, Y_new, islands)
+    predicted = _predicted(step, state.change)
+    live = ~state.done
+    state.change[live] = step[live]
+    keep_old = islands.expand(state.done)[:, None]
+    state.previous = Y
+    state.Y = np.where(keep_old, Y, Y_new)
+    state.LY = np.where(keep_old, LY, LY_new)
+    state.mu[live] = mu_new[live]
+    state.done |= (step < tol) | (predicted < tol) | ambiguous
+
+
+def _moved(Y: np.ndarray, Y_new: np.ndarray, islands: Islands) -> np.ndarray:
+    """How far the pair moved, per island (n_islands,): the norm of the part of
+    ``Y_new[:, :2]`` outside the span of ``Y[:, :2]`` (both orthonormal per island), the
+    sine of the angle between the two subspaces."""
+    cross = islands.gram(Y[:, :2], Y_new[:, :2])
+    moved = Y_new[:, :2] - islands.apply(Y[:, :2], cross)
+    return np.sqrt(islands.sum(moved**2).sum(axis=1))
+
+
+def _predicted(step: np.ndarray, change: np.ndarray) -> np.ndarray:
+    """The next step (n_islands,) predicted from this ``step`` and the last (``change``,
+    ``inf`` before the first), where the iteration converges linearly; else ``step``."""
+    # linear convergence: the next step would move about step * (step / last step),
+    # once the iteration is in its linear regime: a rate measured from a large last
+    # step is not trusted (200k-vertex developable strips: steps 0.63 then 2e-5
+    # "predicted" 6e-10 and stopped at an edge error of 4e-8; one more step: 6e-10)
+    last = np.where(np.isfinite(change), change, 1.0)
+    linear = np.isfinite(change) & (step < change) & (last < _LINEAR)  # (so last > step >= 0)
+    rate = np.where(linear, step / np.where(linear, last, 1.0), 1.0)
+    return step * rate
+
+
+def _embedding(state: _Iteration, islands: Islands, rest, timings: EmbeddingTimings) -> Embedding:
+    """The :class:`Embedding` of the iteration's ``state``, with the islands that went on
+    alone (``rest``, from :func:`_go_on_alone`) taken from their sub-problem."""
+    coords = state.Y[:, :2] * np.sqrt(islands.expand(islands.size.astype(np.float64)))[:, None]
+    mu, done, change, iterations = state.mu, state.done, state.change, state.iterations
     if rest is not None:
         live, rows, emb = rest
         coords[rows] = emb.coords
         mu[live, :2], done[live], change[live] = emb.eigenvalues, emb.converged, emb.change
         iterations += emb.iterations
-    timings = pls.timings
-    before_basis = timings.factorization + (plan.seconds if own_plan else 0.0)
-    timings.pinned_basis, timings.iterations = t1 - t0 - before_basis, t2 - t1
-    if rest is not None:  # the islands that went on alone: their ordering and LU count as such
+    return Embedding(coords, mu[:, :2], done, change, iterations, timings)
+
+
+def _timings(timings: EmbeddingTimings, planning: float, setup: float, iterating: float, rest) -> EmbeddingTimings:
+    """``timings`` (the factorization's) completed: the pinned basis took the ``setup``
+    seconds that neither ``planning`` (the order, when computed here) nor the factorization
+    did; the islands that went on alone (``rest``) count their ordering and LU as such,
+    not as iterations."""
+    before_basis = timings.factorization + planning
+    timings.pinned_basis, timings.iterations = setup - before_basis, iterating
+    if rest is not None:
         sub = rest[2].timings
         timings.ordering += sub.ordering
         timings.factorization += sub.factorization
         timings.iterations -= sub.ordering + sub.factorization
-    return Embedding(coords, mu[:, :2], done, change, iterations, timings)
+    return timings
 
 
 def _go_on_alone(L, X, islands: Islands, live: np.ndarray, Y: np.ndarray, tol, max_iter, block):
