@@ -3,7 +3,9 @@
 Every record here is typed: a caller reads fields, never message text. A warning has a
 ``kind`` (the table in :class:`SolverWarning`), a ``count``, the ``first`` element
 concerned and a text template, so the operator can drop a case, or name elements its
-own way, without parsing.
+own way, without parsing. The words of a warning are built next to the feature that
+raises it (:func:`warning` makes one): the topology's and the four steps' here, the
+charts', the extra cuts' and the overlap cuts' in :mod:`.charting`.
 """
 
 from __future__ import annotations
@@ -25,11 +27,10 @@ __all__ = [
     "Stats",
     "Timings",
     "WarningKind",
-    "charted",
     "defects",
     "opened",
-    "over_budget",
     "solver_names",
+    "warning",
     "warnings",
 ]
 
@@ -126,7 +127,9 @@ class SolverWarning:
         return self.text
 
 
-def _warning(kind: WarningKind, count: int, element: str, first, template: str) -> SolverWarning:
+def warning(kind: WarningKind, count: int, element: str, first, template: str) -> SolverWarning:
+    """A warning of ``kind`` on ``count`` elements (``first``: the first one's indices),
+    worded by ``template`` (its ``{first}`` is filled in with the caller's names)."""
     first = () if first is None else tuple(int(i) for i in np.atleast_1d(first))
     return SolverWarning(kind, int(count), element, first, template)
 
@@ -299,22 +302,8 @@ def opened(closed, handles, holes, nonorientable) -> list[SolverWarning]:
                 f"{counted(len(isl), 'island', 'islands')} {name} {'was' if len(isl) == 1 else 'were'} cut into "
                 "disks automatically (first: {first}); mark seams to choose the cut"
             )
-            out.append(_warning(kind, len(isl), "island", isl[0], template))
+            out.append(warning(kind, len(isl), "island", isl[0], template))
     return out
-
-
-def cut_apart(pieces: np.ndarray) -> list[SolverWarning]:
-    """The note on the islands that overlapped themselves and were cut apart
-    (:mod:`.untangle`): ``pieces`` (k,) int64, per such island the result's island that
-    holds its lowest-numbered face."""
-    n = len(pieces)
-    if not n:
-        return []
-    template = (
-        f"{counted(n, 'island', 'islands')} overlapped {'itself' if n == 1 else 'themselves'} in UV space and "
-        f"{'was' if n == 1 else 'were'} cut apart (first: {{first}})"
-    )
-    return [_warning(WarningKind.CUT_APART, n, "island", pieces[0], template)]
 
 
 def defects(found) -> list[SolverWarning]:
@@ -327,70 +316,22 @@ def defects(found) -> list[SolverWarning]:
             f"{counted(n, 'face repeats', 'faces repeat')} the vertices of an earlier face (first: {{first}}): "
             f"{'it is' if n == 1 else 'each is'} laid out as an island of its own; delete the copies"
         )
-        out.append(_warning(WarningKind.DUPLICATE_FACES, n, "face", found.duplicate_faces[0], template))
+        out.append(warning(WarningKind.DUPLICATE_FACES, n, "face", found.duplicate_faces[0], template))
     if len(found.edges):
         n = len(found.edges)
         template = (
             f"{counted(n, 'edge is', 'edges are')} shared by more than two faces (first: {{first}}): cut as seams, "
             "each fan of faces on its own side (Select > Select All by Trait > Non Manifold shows them)"
         )
-        out.append(_warning(WarningKind.NON_MANIFOLD_EDGES, n, "edge", found.edges[0], template))
+        out.append(warning(WarningKind.NON_MANIFOLD_EDGES, n, "edge", found.edges[0], template))
     if len(found.bowties):
         n = len(found.bowties)
         template = (
             f"{counted(n, 'vertex joins', 'vertices join')} faces that share no edge around "
             f"{'it' if n == 1 else 'them'} (first: {{first}}): split into one copy for each group of faces"
         )
-        out.append(_warning(WarningKind.BOWTIES, n, "vertex", found.bowties[0], template))
+        out.append(warning(WarningKind.BOWTIES, n, "vertex", found.bowties[0], template))
     return out
-
-
-def lowered(added: int, before: np.ndarray, score: np.ndarray) -> list[SolverWarning]:
-    """The warning that says what the extra cuts did (``before``/``score``: area
-    distortion of the islands that were cut open, before and after)."""
-    if not added:
-        return []
-    template = (
-        f"{added} more edges cut on {int((score < before).sum())} of them, lowering "
-        f"their area distortion from {before.mean():.3g} to {score.mean():.3g}"
-    )
-    return [_warning(WarningKind.EXTRA_CUTS, added, "", None, template)]
-
-
-def charted(islands: int, not_disks: int, curved: int, charts: int, energy: float, budget: float, first: int):
-    """The note that says what was cut into charts (:mod:`.charts`): ``islands`` cut into
-    ``charts`` in all (as many: slit open only), ``not_disks`` of them because they were
-    not disks, ``curved`` disks because they were curved like closed parts (the others
-    because they stretched more than ``budget``), and their charts' mean symmetric
-    Dirichlet ``energy`` per area."""
-    why = []
-    if not_disks:
-        why.append(f"{not_disks} not {'a disk' if not_disks == 1 else 'disks'}")
-    if curved:
-        why.append(f"{curved} curved like a closed part")
-    if islands - not_disks - curved:
-        why.append(f"{islands - not_disks - curved} stretched beyond {budget:.3g}")
-    into = "slit open" if charts == islands else f"cut into {charts} charts"
-    template = (
-        f"{counted(islands, 'island was', 'islands were')} {into} ({', '.join(why)}; "
-        f"first: {{first}}), distortion {energy:.3f} (4 is isometric)"
-    )
-    return [_warning(WarningKind.CHARTS, charts, "island", first, template)]
-
-
-def over_budget(islands: int, pinned: int, energy: float, budget: float, allowed: float, refined: bool, first: int):
-    """The warning on ``islands`` whose charts still stretch beyond ``budget`` (Max Stretch,
-    which ``allowed`` symmetric Dirichlet energy per area) after charting, ``pinned`` of
-    them whole because of their pins: their mean energy per area, and what would help:
-    seams, a higher budget, or (not ``refined``) refinement."""
-    why = f", {pinned} kept whole by {'its' if pinned == 1 else 'their'} pins" if pinned else ""
-    help_ = "mark seams there or raise Max Stretch" if refined else "not refined: refinement lowers it"
-    template = (
-        f"{counted(islands, 'island stretches', 'islands stretch')} beyond {budget:.3g} "
-        f"(distortion {energy:.3f} where {budget:.3g} allows {allowed:.3f}{why}; "
-        f"first: {{first}}): {help_}"
-    )
-    return [_warning(WarningKind.OVER_BUDGET, islands, "island", first, template)]
 
 
 def warnings(islands: IslandReport, converged: np.ndarray, flipped: np.ndarray, unused: int) -> list[SolverWarning]:
@@ -407,21 +348,21 @@ def _step_warnings(islands: IslandReport, converged: np.ndarray) -> list[SolverW
             f"step 3 did not converge on {counted(bad.size, 'island', 'islands')} (first: {{first}}, "
             f"subspace change {islands.change[bad[0]]:.1e})"
         )
-        out.append(_warning(WarningKind.NOT_CONVERGED, bad.size, "island", bad[0], template))
+        out.append(warning(WarningKind.NOT_CONVERGED, bad.size, "island", bad[0], template))
     if islands.clipped.any():
         n = int(islands.clipped.sum())
         template = f"step 4 fitted a degenerate scale on {counted(n, 'island', 'islands')}"
-        out.append(_warning(WarningKind.DEGENERATE_SCALE, n, "", None, template))
+        out.append(warning(WarningKind.DEGENERATE_SCALE, n, "", None, template))
     if islands.regularized.any():
         n = int(islands.regularized.sum())
         template = f"{counted(n, 'vertex has', 'vertices have')} no exact reconstruction (degenerate fans)"
-        out.append(_warning(WarningKind.DEGENERATE_FANS, n, "", None, template))
+        out.append(warning(WarningKind.DEGENERATE_FANS, n, "", None, template))
     restarted = {"conformal map": int(islands.conformal.sum()), "Tutte embedding": int(islands.tutte.sum())}
     if sum(restarted.values()):
         seeds = " and ".join(f"{k} from a {name}" for name, k in restarted.items() if k)
         first = np.argmax(islands.conformal | islands.tutte)
         template = f"the four-step layout folded on some islands; laid out instead: {seeds}"
-        out.append(_warning(WarningKind.RESTARTED, sum(restarted.values()), "island", first, template))
+        out.append(warning(WarningKind.RESTARTED, sum(restarted.values()), "island", first, template))
     # a start that crushed faces the descent could not open: the report's stretch shows
     # it, this says what to do about it
     energy, area = islands.refine_energy, islands.refine_area
@@ -433,7 +374,7 @@ def _step_warnings(islands: IslandReport, converged: np.ndarray) -> list[SolverW
             f"distortion {energy[i] / area[i]:.3g}, 4 is isometric): parts of it stay squeezed flat; "
             "mark seams to cut it where it is squeezed"
         )
-        out.append(_warning(WarningKind.FAR_FROM_ISOMETRIC, stuck.size, "island", i, template))
+        out.append(warning(WarningKind.FAR_FROM_ISOMETRIC, stuck.size, "island", i, template))
     return out
 
 
@@ -445,21 +386,21 @@ def _pin_warnings(islands: IslandReport) -> list[SolverWarning]:
             f"{counted(n, 'island has', 'islands have')} all their pins on one UV (first: {{first}}): "
             "moved there, not scaled or shaped by them"
         )
-        out.append(_warning(WarningKind.PINS_ON_ONE_UV, n, "island", np.argmax(islands.one_point), template))
+        out.append(warning(WarningKind.PINS_ON_ONE_UV, n, "island", np.argmax(islands.one_point), template))
     if islands.pin_conflicts.any():
         n = int(islands.pin_conflicts.sum())
         template = (
             f"{counted(n, 'pinned vertex has', 'pinned vertices have')} corners pinned to different UVs "
             "(first: {first}): each is held at their mean"
         )
-        out.append(_warning(WarningKind.PIN_CONFLICT, n, "island", np.argmax(islands.pin_conflicts > 0), template))
+        out.append(warning(WarningKind.PIN_CONFLICT, n, "island", np.argmax(islands.pin_conflicts > 0), template))
     missed = np.flatnonzero(~islands.reached)
     if missed.size:
         template = (
             f"the pins of {counted(missed.size, 'island', 'islands')} could not all be reached without folding "
             "the layout (first: {first})"
         )
-        out.append(_warning(WarningKind.PINS_UNREACHED, missed.size, "island", missed[0], template))
+        out.append(warning(WarningKind.PINS_UNREACHED, missed.size, "island", missed[0], template))
     return out
 
 
@@ -471,15 +412,15 @@ def _layout_warnings(islands: IslandReport, flipped: np.ndarray, unused: int) ->
             f"{counted(over.size, 'island overlaps', 'islands overlap')} itself in UV space (first: {{first}}): "
             "a texture painted there shows up twice; a seam across the overlap separates it"
         )
-        out.append(_warning(WarningKind.OVERLAPPING, over.size, "island", over[0], template))
+        out.append(warning(WarningKind.OVERLAPPING, over.size, "island", over[0], template))
     if flipped.any():
         n = int(flipped.sum())
         template = f"{counted(n, 'triangle is', 'triangles are')} flipped in the layout (first: {{first}})"
-        out.append(_warning(WarningKind.FLIPPED, n, "face", np.argmax(flipped), template))
+        out.append(warning(WarningKind.FLIPPED, n, "face", np.argmax(flipped), template))
     if unused:
         template = (
             f"{counted(unused, 'vertex belongs', 'vertices belong')} to no face and "
             f"{'was' if unused == 1 else 'were'} placed at (0, 0)"
         )
-        out.append(_warning(WarningKind.UNUSED_VERTICES, unused, "", None, template))
+        out.append(warning(WarningKind.UNUSED_VERTICES, unused, "", None, template))
     return out

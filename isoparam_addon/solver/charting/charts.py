@@ -54,6 +54,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from .. import metrics
+from ..errors import counted
 from ..geometry import TINY, corner_angles, corner_signed_areas, face_areas, safe_divide
 from ..mesh.halfedges import HalfEdges, edge_mask, pair_keys, split, unique_edges, unit_of
 from ..mesh.islands import first_rows
@@ -62,21 +63,12 @@ from ..mesh.topology import Topology
 from ..options import Options, Problem
 from ..pipeline import solve, topology_of
 from ..progress import geometric, stage, tick
-from ..report import (
-    OPENED_KINDS,
-    TOPOLOGY_KINDS,
-    SolverWarning,
-    WarningKind,
-    charted,
-    cut_apart,
-    opened,
-    over_budget,
-)
+from ..report import OPENED_KINDS, TOPOLOGY_KINDS, SolverWarning, WarningKind, opened, warning
 from ..result import Parametrization, topology_warnings
 from . import stress
 from .mincut import FaceGraph, face_graph, minimum_cut, source_side, without_chips
 from .resolve import cut_further, pairs, sub_problem
-from .untangle import separating_cuts, without_overlaps
+from .untangle import cut_apart, separating_cuts, without_overlaps
 
 __all__ = ["with_charts"]
 
@@ -802,3 +794,39 @@ def _warnings(
     apart = np.setdiff1d(np.flatnonzero(pieces > 1), cut)  # islands cut apart where they overlapped
     out += cut_apart(result.face_island[first[apart]])
     return out + [w for w in result.warnings if w.kind not in TOPOLOGY_KINDS | {WarningKind.CUT_APART}]
+
+
+def charted(islands: int, not_disks: int, curved: int, charts: int, energy: float, budget: float, first: int):
+    """The note that says what was cut into charts (:func:`with_charts`): ``islands`` cut into
+    ``charts`` in all (as many: slit open only), ``not_disks`` of them because they were
+    not disks, ``curved`` disks because they were curved like closed parts (the others
+    because they stretched more than ``budget``), and their charts' mean symmetric
+    Dirichlet ``energy`` per area."""
+    why = []
+    if not_disks:
+        why.append(f"{not_disks} not {'a disk' if not_disks == 1 else 'disks'}")
+    if curved:
+        why.append(f"{curved} curved like a closed part")
+    if islands - not_disks - curved:
+        why.append(f"{islands - not_disks - curved} stretched beyond {budget:.3g}")
+    into = "slit open" if charts == islands else f"cut into {charts} charts"
+    template = (
+        f"{counted(islands, 'island was', 'islands were')} {into} ({', '.join(why)}; "
+        f"first: {{first}}), distortion {energy:.3f} (4 is isometric)"
+    )
+    return [warning(WarningKind.CHARTS, charts, "island", first, template)]
+
+
+def over_budget(islands: int, pinned: int, energy: float, budget: float, allowed: float, refined: bool, first: int):
+    """The warning on ``islands`` whose charts still stretch beyond ``budget`` (Max Stretch,
+    which ``allowed`` symmetric Dirichlet energy per area) after charting, ``pinned`` of
+    them whole because of their pins: their mean energy per area, and what would help:
+    seams, a higher budget, or (not ``refined``) refinement."""
+    why = f", {pinned} kept whole by {'its' if pinned == 1 else 'their'} pins" if pinned else ""
+    help_ = "mark seams there or raise Max Stretch" if refined else "not refined: refinement lowers it"
+    template = (
+        f"{counted(islands, 'island stretches', 'islands stretch')} beyond {budget:.3g} "
+        f"(distortion {energy:.3f} where {budget:.3g} allows {allowed:.3f}{why}; "
+        f"first: {{first}}): {help_}"
+    )
+    return [warning(WarningKind.OVER_BUDGET, islands, "island", first, template)]

@@ -21,15 +21,16 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
+from ..errors import counted
 from ..mesh.islands import first_rows
 from ..options import Options, Problem
 from ..progress import geometric, stage
-from ..report import cut_apart
+from ..report import SolverWarning, WarningKind, warning
 from ..result import Parametrization
 from .mincut import FaceGraph, face_graph, minimum_cut, without_chips
 from .resolve import carried_warnings, cut_further, pairs
 
-__all__ = ["separating_cuts", "without_overlaps"]
+__all__ = ["cut_apart", "separating_cuts", "without_overlaps"]
 
 _ROUNDS = 6  # cut, solve again, check: at most this many times
 _BAND = 0.5  # a face twice as near to one layer as to the other is on its side of the cut
@@ -146,3 +147,17 @@ def _sides(graph: FaceGraph, layer: np.ndarray, other: np.ndarray):
     near = csgraph.dijkstra(G, directed=False, indices=np.flatnonzero(layer), min_only=True)
     far = csgraph.dijkstra(G, directed=False, indices=np.flatnonzero(other), min_only=True)
     return layer | (near < (1.0 - _BAND) * far), other | (far < (1.0 - _BAND) * near)
+
+
+def cut_apart(pieces: np.ndarray) -> list[SolverWarning]:
+    """The note on the islands that overlapped themselves and were cut apart
+    (:func:`without_overlaps`): ``pieces`` (k,) int64, per such island the result's island that
+    holds its lowest-numbered face."""
+    n = len(pieces)
+    if not n:
+        return []
+    template = (
+        f"{counted(n, 'island', 'islands')} overlapped {'itself' if n == 1 else 'themselves'} in UV space and "
+        f"{'was' if n == 1 else 'were'} cut apart (first: {{first}})"
+    )
+    return [warning(WarningKind.CUT_APART, n, "island", pieces[0], template)]
