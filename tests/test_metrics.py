@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from isoparam_addon.solver import metrics
+from isoparam_addon.solver.geometry import triangles
 from isoparam_eval import meshes as ex
 
 
@@ -82,3 +83,15 @@ def test_stretch_summary_has_the_analytic_values_and_combines_by_area():
     both = metrics.combine_stretch([a, b])
     assert both.worst == pytest.approx(np.sqrt(2))
     assert both.mean == pytest.approx((1.0 + 4.0 * np.sqrt(2)) / 5.0)  # weighted by 3D area
+
+
+def test_a_needle_is_flat_whichever_corner_comes_first_and_left_out_of_the_stretch():
+    # a unit right triangle, and a needle beside it whose first side is 1e-8 long: in the
+    # plane, laid out as it is (isometric), every measure is 1
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1 + 1e-8, 0, 0]], dtype=np.float64)
+    needle = np.array([1, 3, 2])
+    for turn in range(3):
+        F = np.array([[0, 1, 2], np.roll(needle, turn)])
+        assert triangles(V, F).collapsed.tolist() == [False, True]
+        assert metrics.stretch(V, F, V[:, :2]) == pytest.approx((1.0, 1.0))
+        assert metrics.symmetric_dirichlet(V, F, V[:, :2]) == pytest.approx(4.0)

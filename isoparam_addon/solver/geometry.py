@@ -159,9 +159,11 @@ def triangles(X: np.ndarray, faces: np.ndarray) -> Triangles:
 class Frames(NamedTuple):
     """Each face in its own plane, the frame the Jacobians of maps from it are taken in:
     corners (0, 0), (x1, 0), (x2, y2), y2 > 0. One rule for faces with no area to speak
-    of (``flat``: a height below ``COLLAPSED`` of the longer side from the first corner):
-    they keep a stand-in height of that much, and a face collapsed to a point a stand-in
-    size from the mesh, so that a gradient on them is large but finite. All (m,)."""
+    of (``flat``: twice the area at most ``COLLAPSED`` times the square of the longer side
+    from the first corner, the same for every choice of first corner up to which two sides
+    that measures): they keep a stand-in height of ``COLLAPSED`` times that side, and a
+    face collapsed to a point (or below 1e-9 of the mesh's largest face) a stand-in size,
+    so that a gradient on them is large but finite. All (m,)."""
 
     x1: np.ndarray
     x2: np.ndarray
@@ -183,7 +185,10 @@ def frames_of(tri: Triangles) -> Frames:
     x1 = np.maximum(tri.l1, floor)
     x2 = tri.dot / x1
     y2 = tri.cross / x1
-    return Frames(x1, x2, np.maximum(y2, floor), y2 < floor)
+    # flat: twice the area below COLLAPSED of the longer side squared, whichever corner is
+    # first (a face whose first side is shorter than the floor is flat by this rule too,
+    # so no face that is not flat has its frame taken from a stand-in side)
+    return Frames(x1, x2, np.maximum(y2, floor), tri.cross <= floor * scale)
 
 
 def gradient_coefficients(frames: Frames) -> tuple[np.ndarray, np.ndarray]:

@@ -201,7 +201,7 @@ def stretch(V, F, uv) -> tuple[float, float]:
     sig, area, ok = singular_values(V, F, uv)
     big, small, _ = _inverse_stretches(sig * _area_scale(V, F, uv))
     w = area * ok
-    l2 = np.sqrt((0.5 * (big**2 + small**2) * w).sum() / w.sum())
+    l2 = np.sqrt((0.5 * (big**2 + small**2) * w).sum() / w.sum()) if w.sum() > 0 else 1.0
     return float(l2), float(big[ok].max(initial=1.0))
 
 
