@@ -11,6 +11,7 @@ medians.
 
     python scripts/compare_revisions.py c975a22 HEAD --meshes spot fandisk homer --repeat 3
     python scripts/compare_revisions.py HEAD~1 --peaks 317    # peaks 317x317 (z/3) too
+    python scripts/compare_revisions.py HEAD~1 --meshes /path/to/beast.obj
 """
 
 from __future__ import annotations
@@ -40,6 +41,8 @@ if name.startswith("peaks"):
     V, F = ex.peaks(int(name[5:]))
 elif name == "suzanne":
     V, F = ex.suzanne_closed()
+elif name.endswith(".obj"):  # a mesh of one's own, by its path
+    V, F = ex.load_obj(name)[:2]
 else:
     V, F = ex.real_mesh(name)[:2] if name in ex.REAL else ex.load_obj(ex.SHARED / f"{name}.obj")[:2]
 t = time.perf_counter()

@@ -49,3 +49,48 @@ def test_the_barrier_acts_within_the_gap_only_and_its_gradient_is_exact():
     far = x.copy()
     far[4] = [3.0, 0.5]  # beyond the gap of every edge
     assert contact.energy(far, contact.near(far, np.ones(1, dtype=bool)), 1)[0][0] == 0.0
+
+
+def test_a_pair_list_renewed_where_vertices_outran_it_is_the_list_built_anew(monkeypatch):
+    """Where a few vertices move beyond their allowance, only their pairs are found again
+    (:class:`.watch._VerletList`); the pairs in reach of the next step, and the barrier
+    they give, are those of a list built anew, to the last bit."""
+    from isoparam_addon.solver.refinement import watch as watching
+    from isoparam_addon.solver.refinement.watch import ContactWatch
+
+    renewals = []
+    renew = watching._VerletList.renewed
+    monkeypatch.setattr(watching._VerletList, "renewed", lambda *a: renewals.append(a[3].sum()) or renew(*a))
+
+    n = 80
+    angle = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    x = np.stack([np.cos(angle), 0.06 * np.sin(angle)], axis=1)  # a thin ellipse: two banks
+    edges = np.stack([np.arange(n), (np.arange(n) + 1) % n], axis=1)
+    gap = 0.5 * np.linalg.norm(x[edges[:, 1]] - x[edges[:, 0]], axis=1)
+    after, before = edges[:, 1], (np.arange(n) - 1) % n
+    X = np.hstack([x * [1.0, 20.0], np.zeros((n, 1))])  # apart on the surface: the barrier acts
+    contact = Contact(edges, np.zeros(n, np.int64), gap, 1, after, before, X, np.arange(n))
+    one = np.ones(1, dtype=bool)
+
+    def watch():
+        w = ContactWatch(contact, 1)
+        w.no_contact[:], w.watched[:] = False, True
+        return w
+
+    rng = np.random.default_rng(3)
+    kept = watch()
+    kept.near(x, None, None, one)  # listed here
+    moved = x.copy()
+    few = rng.choice(np.flatnonzero(x[:, 1] > 0), 6, replace=False)
+    moved[few, 1] -= 0.07  # a few top vertices pressed towards the bottom bank
+    p = np.zeros_like(x)
+    p[few] = rng.normal(size=(6, 2)) * 0.02
+    t = np.ones(1)
+    renewed = kept.near_step(moved, p, t, one)
+    fresh = watch().near_step(moved, p, t, one)
+    assert renewals == [6] and len(renewed[0].vertex) > 0
+    for a, b in zip(renewed, fresh):
+        assert set(zip(a.vertex.tolist(), a.edge.tolist())) == set(zip(b.vertex.tolist(), b.edge.tolist()))
+        energy_a, grad_a = contact.energy(moved, a, 1)
+        energy_b, grad_b = contact.energy(moved, b, 1)
+        assert energy_a[0] > 0 and energy_a[0] == energy_b[0] and np.array_equal(grad_a, grad_b)

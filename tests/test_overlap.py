@@ -6,7 +6,7 @@ import pytest
 
 from isoparam_addon.operation.options import DEFAULTS
 from isoparam_addon.solver import WarningKind, metrics, parametrize
-from isoparam_addon.solver.overlap import crossings, overlapping_faces, shared_area
+from isoparam_addon.solver.overlap import _pairs_in_cells, crossings, overlapping_faces, shared_area
 from isoparam_eval import meshes as ex
 
 
@@ -119,3 +119,20 @@ def test_the_face_graph_of_some_islands_is_the_whole_graph_among_them():
     assert len(whole.f) > 0 and np.array_equal(whole.f[a], part.f[b]) and np.array_equal(whole.g[a], part.g[b])
     assert np.array_equal(whole.edges[a], part.edges[b]) and np.array_equal(whole.cost[a], part.cost[b])
     assert np.array_equal(whole.centroids, part.centroids)
+
+
+def test_pairs_asked_for_some_items_are_the_pairs_that_hold_them(rng):
+    lo = rng.uniform(0.0, 10.0, size=(400, 2))
+    hi = lo + rng.exponential(0.3, size=(400, 2)) * np.where(rng.uniform(size=(400, 1)) < 0.05, 20.0, 1.0)
+    group = rng.integers(0, 3, 400)
+    query = rng.uniform(size=400) < 0.1
+    i, j = _pairs_in_cells(lo, hi, group, 0.6)
+    brute = {
+        (a, b)
+        for a in range(400)
+        for b in range(a + 1, 400)
+        if group[a] == group[b] and (lo[a] <= hi[b]).all() and (lo[b] <= hi[a]).all()
+    }
+    assert set(zip(i.tolist(), j.tolist())) == brute
+    asked = set(zip(*_pairs_in_cells(lo, hi, group, 0.6, query)))
+    assert asked == {(a, b) for a, b in brute if query[a] or query[b]} and asked

@@ -33,9 +33,10 @@ __all__ = [
 ]
 
 
-def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: float):
+def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: float, query: np.ndarray | None = None):
     """Pairs (i < j) of items whose boxes ``lo``/``hi`` (k, 2) meet and that belong to the
-    same ``group`` (k,): (p,) and (p,) int64, each pair once.
+    same ``group`` (k,): (p,) and (p,) int64, each pair once. With ``query`` (k,) bool,
+    only the pairs that hold a query item (cells without one are not paired at all).
 
     A grid per size class (a loose quadtree, flattened): an item whose box is wider than
     ``cell`` goes to the grid whose cells are the smallest power of two times ``cell`` at
@@ -46,11 +47,12 @@ def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: flo
     """
     k = len(lo)
     empty = np.zeros(0, dtype=np.int64)
-    if k < 2:
+    if k < 2 or (query is not None and not query.any()):
         return empty, empty
     base = lo.min(axis=0)
     extent = np.max(hi - lo, axis=1)
     level = np.ceil(np.log2(np.maximum(extent / cell, 1.0))).astype(np.int64)
+    lo_, hi_ = np.ascontiguousarray(lo.T), np.ascontiguousarray(hi.T)
     found = []
     for top in np.unique(level):  # a few size classes, each one whole-array pass
         held = np.flatnonzero(level <= top)
@@ -68,6 +70,10 @@ def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: flo
         own = level[held[slot]] == top
         order = np.lexsort((~own, key))  # per cell, this grid's own items first
         key, item, own = key[order], held[slot[order]], own[order]
+        if query is not None:  # the cells that hold a query item
+            first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+            asked = np.repeat(np.maximum.reduceat(query[item], first), np.diff(np.r_[first, len(key)]))
+            key, item, own = key[asked], item[asked], own[asked]
         start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
         size_ = np.diff(np.r_[start, len(key)])
         # every own item with each later item of its cell (own first: every pair once per cell)
@@ -76,7 +82,12 @@ def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: flo
         a = np.repeat(pos, later)
         b = a + 1 + (np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later))
         i, j = item[a], item[b]
-        meet = (i != j) & ((lo[i] <= hi[j]) & (lo[j] <= hi[i])).all(axis=1)  # (boxes apart: items apart)
+        if query is not None:
+            asked = query[i] | query[j]
+            i, j = i[asked], j[asked]
+        meet = i != j  # (boxes apart: items apart; one coordinate array at a time, as numpy is fastest)
+        for c in range(2):
+            meet &= (lo_[c][i] <= hi_[c][j]) & (lo_[c][j] <= hi_[c][i])
         found.append(np.stack([i[meet], j[meet]]))
     i, j = np.concatenate(found, axis=1)
     keep = i != j

@@ -52,10 +52,20 @@ def _distances(x: np.ndarray, v: np.ndarray, a: np.ndarray, b: np.ndarray):
     """Distances (p,) from points ``x[v]`` to segments ``x[a]``-``x[b]`` (rows of any
     dimension), where along each segment the nearest point lies (p,), and the vectors
     from it to the point (p, d)."""
-    pa, ab = x[v] - x[a], x[b] - x[a]
-    s = np.clip(safe_divide((pa * ab).sum(axis=1), (ab * ab).sum(axis=1)), 0.0, 1.0)
-    diff = pa - s[:, None] * ab
-    return np.sqrt((diff * diff).sum(axis=1)), s, diff
+    columns = [x[:, c] for c in range(x.shape[1])]  # (a coordinate at a time: numpy is slow along short rows)
+    pa = [c[v] - c[a] for c in columns]
+    ab = [c[b] - c[a] for c in columns]
+    s = np.clip(safe_divide(_dot(pa, ab), _dot(ab, ab)), 0.0, 1.0)
+    diff = [p - s * q for p, q in zip(pa, ab)]
+    return np.sqrt(_dot(diff, diff)), s, np.stack(diff, axis=1)
+
+
+def _dot(p: list[np.ndarray], q: list[np.ndarray]) -> np.ndarray:
+    """Row-wise dot products of vectors given as lists of coordinate arrays."""
+    out = p[0] * q[0]
+    for a, b in zip(p[1:], q[1:]):
+        out += a * b
+    return out
 
 
 def _log_barrier(d: np.ndarray, g: np.ndarray):
@@ -169,6 +179,10 @@ class Boundary:
         starting[edges[:, 0]] = np.arange(len(edges))
         return cls(edges, vertex_island[edges[:, 0]], gap, n_islands, after, before, X, starting)
 
+    def n_vertices(self, which: np.ndarray) -> int:
+        """How many boundary vertices the islands ``which`` (n_islands,) bool have."""
+        return int(which[self.edge_island].sum())
+
     def _vertex_gap(self) -> np.ndarray:
         """Per vertex (n,), the larger gap of its two boundary edges (0 off the boundary)."""
         out = np.zeros(len(self.after))
@@ -198,10 +212,12 @@ class Boundary:
         beyond = motion[v] > _FOLLOWED * self.gap
         return np.bincount(self.edge_island[beyond], minlength=n_islands) == 0
 
-    def skin(self) -> np.ndarray:
-        """Per vertex (n,) (0 off the boundary), the margin a list of pairs is built with
-        beyond what a step needs, so that the next steps can use it too."""
-        return _SKIN * self._vertex_gap()
+    def allowance(self, motion: np.ndarray) -> np.ndarray:
+        """Per vertex (n,) (0 off the boundary), how far it may move before the pairs listed
+        for it are found again: a step's ``motion`` (n,) and a margin (the skin), so that
+        the next steps can use the list too, up to the reach :meth:`Contact.near` lists."""
+        gap = self._vertex_gap()
+        return np.minimum(motion + _SKIN * gap, (_FOLLOWED + _SKIN) * gap)
 
     def crossing(self, x: np.ndarray, which: np.ndarray | None = None) -> np.ndarray:
         """Per island bool: islands (of ``which``, all by default) whose boundary crosses
@@ -220,12 +236,15 @@ class Contact(Boundary):
     and edges near each other, their barrier, the first step at which they meet, and banks
     that start in contact pushed apart."""
 
-    def near(self, x: np.ndarray, which: np.ndarray, motion: np.ndarray | None = None) -> Near:
+    def near(
+        self, x: np.ndarray, which: np.ndarray, motion: np.ndarray | None = None, moved: np.ndarray | None = None
+    ) -> Near:
         """The (vertex, edge) pairs of the boundaries of the islands ``which``
         (n_islands,) bool that are within their gap of each other in ``x`` (n, 2), or may
         come so while each vertex moves by at most ``motion`` (n,) (one grid pass over
         boxes grown by the gap and the motion, then the distances: a step's trials look
-        at these alone)."""
+        at these alone). With ``moved`` (n,) bool, only the pairs that hold such a vertex
+        (as the vertex or an end of the edge)."""
         on = np.flatnonzero(which[self.edge_island] & self._usable(x))
         if not len(on):
             return Near.none()
@@ -243,7 +262,8 @@ class Contact(Boundary):
         box_lo = np.vstack([x[vertices] - move[vertices, None], np.minimum(a, b) - pad])
         box_hi = np.vstack([x[vertices] + move[vertices, None], np.maximum(a, b) + pad])
         cell = float(max(2.0 * np.median(box_hi[k:] - box_lo[k:]), 1e-300))
-        i, j = _pairs_in_cells(box_lo, box_hi, np.concatenate([island, island]), cell)
+        query = None if moved is None else np.concatenate([moved[vertices], moved[edges].any(axis=1)])
+        i, j = _pairs_in_cells(box_lo, box_hi, np.concatenate([island, island]), cell, query)
         mixed = (i < k) != (j < k)
         v, e = vertices[np.minimum(i, j)[mixed]], on[np.maximum(i, j)[mixed] - k]
         # not an edge of the vertex's own

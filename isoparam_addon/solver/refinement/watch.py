@@ -8,7 +8,9 @@ starts them again, see :meth:`.descent._Descent.watch_pending`). Elsewhere a ste
 tested for crossings at its end.
 
 The pairs followed are listed once and the list kept from step to step while it covers
-them (a Verlet list, as molecular dynamics keeps neighbours).
+them (a Verlet list, as molecular dynamics keeps neighbours); where a few vertices outrun
+it (most steps move some parts of a boundary far more than the rest), only their pairs
+are listed again.
 """
 
 from __future__ import annotations
@@ -22,23 +24,49 @@ from .contact import Contact, Near
 __all__ = ["ContactWatch"]
 
 
+_RENEW = 0.5  # a list is renewed where vertices outran it while they are at most this share; else built anew
+
+
 @dataclass(frozen=True)
 class _VerletList:
-    """Boundary pairs that came within reach of a motion ``allowance`` (n,) per vertex in the
-    layout ``at`` (n, 2), of the islands ``which`` (n_islands,) bool."""
+    """Boundary pairs of the islands ``which`` (n_islands,) bool that may come within reach
+    while each vertex stays within its ``allowance`` (n,) of where it was listed, ``at``
+    (n, 2). A pair not listed is one whose distance there exceeds its gap and the
+    allowances of its vertex and its edge's ends, so it cannot act while each vertex stays
+    within its allowance (the ends of an edge bound every point of it)."""
 
     pairs: Near
     at: np.ndarray
     which: np.ndarray
     allowance: np.ndarray
 
-    def covers(self, contact: Contact, x: np.ndarray, which: np.ndarray, motion: np.ndarray) -> bool:
-        """Whether the list holds every pair of the islands ``which`` that may touch on a
-        step moving each vertex by ``motion`` (n,) from ``x``: it lists those islands, and no
-        vertex has moved, since, by more than its allowance together with the step."""
+    def outrun(self, contact: Contact, x: np.ndarray, which: np.ndarray, motion: np.ndarray) -> np.ndarray:
+        """The boundary vertices (n,) bool of the islands ``which`` that may leave their
+        allowance on a step moving each vertex by ``motion`` (n,) from ``x``."""
         v = contact.edges[which[contact.edge_island], 0]  # (the boundary's vertices)
         drift = np.hypot(*(x[v] - self.at[v]).T)
-        return not (which & ~self.which).any() and (drift + motion[v] <= self.allowance[v]).all()
+        out = np.zeros(len(x), dtype=bool)
+        out[v] = drift + motion[v] > self.allowance[v]
+        return out
+
+    def renewed(self, contact: Contact, x: np.ndarray, moved: np.ndarray, allowance: np.ndarray) -> _VerletList:
+        """The list with the vertices ``moved`` (n,) bool listed again from ``x`` with a new
+        ``allowance`` (n,): their pairs (as the vertex or an end of the edge) found again,
+        every other pair kept, as are the other vertices' places and allowances."""
+        at = np.where(moved[:, None], x, self.at)
+        allowance = np.where(moved, allowance, self.allowance)
+        old = self.pairs
+        ends = contact.edges[old.edge]
+        keep = ~(moved[old.vertex] | moved[ends[:, 0]] | moved[ends[:, 1]])
+        held = np.zeros_like(self.which)  # (their islands: pairs are of one island)
+        held[contact.edge_island[contact.starting[moved]]] = True
+        new = contact.near(at, self.which & held, allowance, moved)
+        vertex, edge = np.concatenate([old.vertex[keep], new.vertex]), np.concatenate([old.edge[keep], new.edge])
+        # in the order a list built anew has (by the vertex's edge, then the edge), so that
+        # the barrier sums its pairs in one order however the list was made
+        order = np.lexsort((edge, contact.starting[vertex]))
+        pairs = Near(vertex[order], edge[order], np.concatenate([old.gap[keep], new.gap])[order])
+        return _VerletList(pairs, at, self.which, allowance)
 
 
 class ContactWatch:
@@ -89,9 +117,15 @@ class ContactWatch:
             return Near.none()
         which = which & ~self.no_contact & self.watched
         motion = np.zeros(len(x)) if p is None or t is None else self.contact.motion(p, t)
-        if self._list is not None and self._list.covers(self.contact, x, which, motion):
-            return self._list.pairs
-        allowance = motion + self.contact.skin()
+        allowance = self.contact.allowance(motion)
+        kept = self._list
+        if kept is not None and not (which & ~kept.which).any():
+            moved = kept.outrun(self.contact, x, which, motion)
+            if not moved.any():
+                return kept.pairs
+            if moved.sum() <= _RENEW * self.contact.n_vertices(which):
+                self._list = kept.renewed(self.contact, x, moved, allowance)
+                return self._list.pairs
         self._list = _VerletList(self.contact.near(x, which, allowance), x.copy(), which.copy(), allowance)
         return self._list.pairs
 
