@@ -85,25 +85,27 @@ def _first_meeting(e0: np.ndarray, e1: np.ndarray, r0: np.ndarray, r1: np.ndarra
     if it never does): ``e0 + t e1`` (p, 2) is the edge (its end from its start), ``r0 + t r1``
     (p, 2) the vertex from the edge's start. The positive roots of their orientation, a
     quadratic in t, where the vertex then lies within the edge."""
-    c2 = e1[:, 0] * r1[:, 1] - e1[:, 1] * r1[:, 0]
-    c1 = e0[:, 0] * r1[:, 1] - e0[:, 1] * r1[:, 0] + e1[:, 0] * r0[:, 1] - e1[:, 1] * r0[:, 0]
-    c0 = e0[:, 0] * r0[:, 1] - e0[:, 1] * r0[:, 0]
+    e0u, e0w, e1u, e1w = e0[:, 0], e0[:, 1], e1[:, 0], e1[:, 1]  # (a coordinate at a time)
+    r0u, r0w, r1u, r1w = r0[:, 0], r0[:, 1], r1[:, 0], r1[:, 1]
+    c2 = e1u * r1w - e1w * r1u
+    c1 = e0u * r1w - e0w * r1u + e1u * r0w - e1w * r0u
+    c0 = e0u * r0w - e0w * r0u
     with np.errstate(divide="ignore", invalid="ignore"):
         disc = np.sqrt(np.maximum(c1 * c1 - 4.0 * c2 * c0, 0.0))
         q = -0.5 * (c1 + np.where(c1 >= 0, disc, -disc))  # (the stable form of the roots)
-        roots = np.stack([q / c2, c0 / q, -c0 / c1], axis=1)
+        roots = [q / c2, c0 / q, -c0 / c1]
     linear = np.abs(c2) <= 1e-14 * (np.abs(c1) + np.abs(c0))
-    roots[:, :2] = np.where(linear[:, None], np.inf, roots[:, :2])
-    roots[:, 2] = np.where(linear, roots[:, 2], np.inf)
-    roots = np.where(np.isfinite(roots) & (roots > 0), roots, np.inf)
     real = (c1 * c1 - 4.0 * c2 * c0 >= 0) | linear
-    roots = np.where(real[:, None], roots, np.inf)
-    # the meeting counts only where the vertex lies on the edge then
-    t = np.where(np.isfinite(roots), roots, 0.0)
-    et = e0[:, None, :] + t[:, :, None] * e1[:, None, :]
-    rt = r0[:, None, :] + t[:, :, None] * r1[:, None, :]
-    along = safe_divide((et * rt).sum(axis=2), (et * et).sum(axis=2), -1.0)
-    return np.where(np.isfinite(roots) & (along >= 0.0) & (along <= 1.0), roots, np.inf).min(axis=1)
+    first = np.full(len(c0), np.inf)
+    for k, root in enumerate(roots):  # (the quadratic's two, or the linear one)
+        root = np.where(linear, np.inf, root) if k < 2 else np.where(linear, root, np.inf)
+        root = np.where(np.isfinite(root) & (root > 0) & real, root, np.inf)
+        # the meeting counts only where the vertex lies on the edge then
+        t = np.where(np.isfinite(root), root, 0.0)
+        et_u, et_w, rt_u, rt_w = e0u + t * e1u, e0w + t * e1w, r0u + t * r1u, r0w + t * r1w
+        along = safe_divide(et_u * rt_u + et_w * rt_w, et_u * et_u + et_w * et_w, -1.0)
+        first = np.minimum(first, np.where(np.isfinite(root) & (along >= 0.0) & (along <= 1.0), root, np.inf))
+    return first
 
 
 def _inward_normals(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
