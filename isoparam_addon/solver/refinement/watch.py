@@ -63,8 +63,9 @@ class _VerletList:
         new = contact.near(at, self.which & held, allowance, moved)
         vertex, edge = np.concatenate([old.vertex[keep], new.vertex]), np.concatenate([old.edge[keep], new.edge])
         # in the order a list built anew has (by the vertex's edge, then the edge), so that
-        # the barrier sums its pairs in one order however the list was made
-        order = np.lexsort((edge, contact.starting[vertex]))
+        # the barrier sums its pairs in one order however the list was made (both parts
+        # are in that order already: a stable sort merges them)
+        order = np.argsort(contact.starting[vertex] * len(contact.edges) + edge, kind="stable")
         pairs = Near(vertex[order], edge[order], np.concatenate([old.gap[keep], new.gap])[order])
         return _VerletList(pairs, at, self.which, allowance)
 
