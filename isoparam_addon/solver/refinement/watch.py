@@ -31,7 +31,7 @@ _RENEW = 0.5  # a list is renewed where vertices outran it while they are at mos
 class _VerletList:
     """Boundary pairs of the islands ``which`` (n_islands,) bool that may come within reach
     while each vertex stays within its ``allowance`` (n,) of where it was listed, ``at``
-    (n, 2). A pair not listed is one whose distance there exceeds its gap and the
+    (n, 2). A pair not listed is one whose distance there is at least its gap and the
     allowances of its vertex and its edge's ends, so it cannot act while each vertex stays
     within its allowance (the ends of an edge bound every point of it)."""
 
@@ -46,7 +46,7 @@ class _VerletList:
         v = contact.edges[which[contact.edge_island], 0]  # (the boundary's vertices)
         drift = np.hypot(*(x[v] - self.at[v]).T)
         out = np.zeros(len(x), dtype=bool)
-        out[v] = drift + motion[v] > self.allowance[v]
+        out[v] = ~(drift + motion[v] <= self.allowance[v])  # (a vertex not a number: outrun)
         return out
 
     def renewed(self, contact: Contact, x: np.ndarray, moved: np.ndarray, allowance: np.ndarray) -> _VerletList:
