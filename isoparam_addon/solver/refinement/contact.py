@@ -32,7 +32,7 @@ from typing import Self
 
 import numpy as np
 
-from ..geometry import safe_divide
+from ..geometry import safe_divide, sum_products
 from ..mesh.halfedges import HalfEdges
 from ..overlap import _pairs_in_cells, crossings
 
@@ -55,17 +55,9 @@ def _distances(x: np.ndarray, v: np.ndarray, a: np.ndarray, b: np.ndarray):
     columns = [x[:, c] for c in range(x.shape[1])]  # (a coordinate at a time: numpy is slow along short rows)
     pa = [c[v] - c[a] for c in columns]
     ab = [c[b] - c[a] for c in columns]
-    s = np.clip(safe_divide(_dot(pa, ab), _dot(ab, ab)), 0.0, 1.0)
+    s = np.clip(safe_divide(sum_products(pa, ab), sum_products(ab, ab)), 0.0, 1.0)
     diff = [p - s * q for p, q in zip(pa, ab)]
-    return np.sqrt(_dot(diff, diff)), s, np.stack(diff, axis=1)
-
-
-def _dot(p: list[np.ndarray], q: list[np.ndarray]) -> np.ndarray:
-    """Row-wise dot products of vectors given as lists of coordinate arrays."""
-    out = p[0] * q[0]
-    for a, b in zip(p[1:], q[1:]):
-        out += a * b
-    return out
+    return np.sqrt(sum_products(diff, diff)), s, np.stack(diff, axis=1)
 
 
 def _log_barrier(d: np.ndarray, g: np.ndarray):
