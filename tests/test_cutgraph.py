@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.sparse import csgraph
 
-from isoparam_addon.solver.mesh.halfedges import HalfEdges, pair_keys
+from isoparam_addon.solver.mesh.halfedges import HalfEdges, pair_keys, unique_sorted
 from isoparam_addon.solver.mesh.topology import build_topology
 from isoparam_eval import meshes as ex
 from isoparam_eval import variants as va
@@ -106,6 +106,16 @@ def test_pair_keys_do_not_wrap_around_for_int32_input():
     assert keys.dtype == np.int64
     assert (keys == 46_000 * 70_000 + 60_000).all()
     assert pair_keys(a, b, 70_000, ordered=True)[1] == 60_000 * 70_000 + 46_000
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 1000])
+def test_unique_sorted_gives_numpys_distinct_values(n):
+    rng = np.random.default_rng(n)
+    for values in (rng.integers(0, max(n // 3, 1), n), rng.integers(-(2**40), 2**40, n), np.arange(n)[::-1]):
+        for dtype in (np.int32, np.int64):
+            got, want = unique_sorted(values.astype(dtype)), np.unique(values.astype(dtype))
+            assert got.dtype == want.dtype
+            assert np.array_equal(got, want)
 
 
 def test_a_genus_two_plate_is_cut_into_a_disk():

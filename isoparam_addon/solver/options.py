@@ -7,6 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from .mesh.halfedges import unique_sorted
+
 __all__ = ["Options", "Problem"]
 
 
@@ -115,4 +117,4 @@ class Problem:
             return None
         if F.ndim != 2 or F.shape[1:] != (3,) or F.dtype.kind not in "iu" or mask.shape != F.shape or not mask.any():
             return None
-        return np.unique(F[mask]).astype(np.int64)
+        return unique_sorted(F[mask].astype(np.int64))

@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .geometry import TINY, corner_signed_areas, det2
-from .mesh.halfedges import pair_keys
+from .mesh.halfedges import pair_keys, unique_sorted
 
 __all__ = [
     "Overlaps",
@@ -54,7 +54,7 @@ def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: flo
     level = np.ceil(np.log2(np.maximum(extent / cell, 1.0))).astype(np.int64)
     lo_, hi_ = np.ascontiguousarray(lo.T), np.ascontiguousarray(hi.T)
     found = []
-    for top in np.unique(level):  # a few size classes, each one whole-array pass
+    for top in unique_sorted(level):  # a few size classes, each one whole-array pass
         held = np.flatnonzero(level <= top)
         size = cell * 2.0 ** float(top)
         c0 = np.floor((lo[held] - base) / size).astype(np.int64)
@@ -91,7 +91,7 @@ def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: flo
         found.append(np.stack([i[meet], j[meet]]))
     i, j = np.concatenate(found, axis=1)
     keep = i != j
-    pair = np.unique(pair_keys(i[keep], j[keep], k))
+    pair = unique_sorted(pair_keys(i[keep], j[keep], k))
     return pair // k, pair % k
 
 
@@ -284,7 +284,8 @@ def self_overlaps(F: np.ndarray, cuv: np.ndarray, face_island: np.ndarray, n_isl
     area = np.bincount(face_island[fi], shared, minlength=n_islands)
     # an island whose boundary crosses where no two faces share area (they only touch
     # there): the faces of its first crossing stand for the overlap
-    bare = np.setdiff1d(np.flatnonzero(per > 0), face_island[fi])
+    bare = np.flatnonzero(per > 0)
+    bare = bare[~np.isin(bare, face_island[fi])]
     first = np.unique(face_island[b[a] // 3], return_index=True)[1]
     pick = first[np.isin(face_island[b[a[first]] // 3], bare)]
     return Overlaps(

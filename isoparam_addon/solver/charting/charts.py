@@ -56,7 +56,7 @@ from scipy.sparse import csgraph
 from .. import metrics
 from ..errors import counted
 from ..geometry import TINY, corner_angles, corner_signed_areas, face_areas, safe_divide
-from ..mesh.halfedges import HalfEdges, edge_mask, pair_keys, split, unique_edges, unit_of
+from ..mesh.halfedges import HalfEdges, edge_mask, pair_keys, split, unique_edges, unique_sorted, unit_of
 from ..mesh.islands import first_rows
 from ..mesh.ordering import nested_dissection
 from ..mesh.topology import Topology
@@ -152,7 +152,7 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
                 break
             rounds = check
             with stage(f"round {check + 1}", *geometric(check)):
-                result = cut_further(result, problem, new, np.union1d(*split), options)
+                result = cut_further(result, problem, new, unique_sorted(np.concatenate(split)), options)
     result.cut_islands = topo.cut_islands
     result.timings.topology += t_topology
     result.timings.charts = time.perf_counter() - t0 - first_solve - t_topology
@@ -161,7 +161,7 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
             result = without_overlaps(result, problem, options)
     result.warnings = _warnings(result, owners, stretch_cut, options.max_stretch, options.refine > 0)
     cut = _cut_by_charting(result, owners, stretch_cut)
-    result.stats.charts = int(len(np.unique(result.face_island[np.isin(owners.face, cut)])))
+    result.stats.charts = int(len(unique_sorted(result.face_island[np.isin(owners.face, cut)])))
     result.stats.chart_rounds = rounds
     result.timings.total = time.perf_counter() - t0
     return result
@@ -337,7 +337,8 @@ def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: floa
     tips = tips[np.broadcast_to(slit, (n_owners,))[owner[charts.face_island[tips]]]]
     keep = on[graph.f] & on[graph.g]
     slit, slitted = _slits(charts, graph.among(on), tips, ratio, None if opening is None else opening[keep])
-    rest = np.setdiff1d(chosen, slitted)
+    rest = unique_sorted(chosen)
+    rest = rest[~np.isin(rest, slitted)]
     cuts = [slit]
     if len(rest):
         source, sink, centres = _balls(charts, graph, rest, ratio)
@@ -381,7 +382,7 @@ def _checked_cuts(result: Parametrization, problem: Problem, owners: _Owners, op
     if len(over):
         seams = np.vstack([pairs(problem.seams), result.cut_edges])
         new, _ = _placed_cuts(problem, options, seams, owners, over, measured, slit=False)
-        split = np.unique(result.face_island[np.isin(owners.face, over)])
+        split = unique_sorted(result.face_island[np.isin(owners.face, over)])
     tick()
     overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
     # (a chart of an island the caller's seams bound, or no chart, is left to the overlap
@@ -446,7 +447,7 @@ def _placed_cuts(
         if not len(new):
             break
         cuts = np.vstack([cuts, new])
-        cut_owners = np.union1d(cut_owners, owner[split])
+        cut_owners = unique_sorted(np.concatenate([cut_owners, owner[split]]))
     return used[cuts], cut_owners
 
 
@@ -670,7 +671,7 @@ def _slits(
     keep = np.ones(len(edges), dtype=bool)
     if opening is not None:
         keep = _opening(edges, slit_of, step, len(target[reached]), inside.edges[use], opening[use], n)
-    slit_faces = faces[reached][np.unique(slit_of[keep])]
+    slit_faces = faces[reached][unique_sorted(slit_of[keep])]
     if not keep.any():
         return none
     return np.unique(np.sort(edges[keep], axis=1), axis=0), np.unique(result.face_island[slit_faces])
@@ -716,7 +717,7 @@ def _over_budget(result: Parametrization, owners: _Owners, budget: float, refine
     """The warning on the islands charting is for (:func:`_owners`) whose charts still
     stretch beyond ``budget`` on average, pinned ones included: how many, how far, and
     what would help."""
-    islands = np.union1d(owners.charted, owners.held)
+    islands = unique_sorted(np.concatenate([owners.charted, owners.held]))
     energy, area, owner = _chart_energy(result, owners, islands)
     k = owners.topo.n_islands
     total = np.bincount(owner, area, minlength=k)
@@ -775,11 +776,12 @@ def _warnings(
     n = topo.n_islands
     pieces = np.bincount(owners.face[first_rows(result.face_island, result.n_islands)], minlength=n)
     cut = _cut_by_charting(result, owners, stretch_cut)
-    kept = np.setdiff1d(topo.cut_islands, cut)
+    kept = unique_sorted(topo.cut_islands)
+    kept = kept[~np.isin(kept, cut)]
     first = first_rows(owners.face, n)
 
     def now(islands):  # the result's island holding each island's first face
-        return result.face_island[first[np.intersect1d(islands, kept)]]
+        return result.face_island[first[kept[np.isin(kept, islands)]]]
 
     before = topology_warnings(topo)
     out = [w for w in before if w.kind not in OPENED_KINDS]
@@ -791,7 +793,8 @@ def _warnings(
     )
     out += _charted(result, owners, cut, budget)
     out += _over_budget(result, owners, budget, refined)
-    apart = np.setdiff1d(np.flatnonzero(pieces > 1), cut)  # islands cut apart where they overlapped
+    apart = np.flatnonzero(pieces > 1)  # islands cut apart where they overlapped
+    apart = apart[~np.isin(apart, cut)]
     out += cut_apart(result.face_island[first[apart]])
     return out + [w for w in result.warnings if w.kind not in TOPOLOGY_KINDS | {WarningKind.CUT_APART}]
 

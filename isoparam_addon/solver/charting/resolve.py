@@ -18,7 +18,7 @@ import numpy as np
 
 from ..geometry import safe_divide, signed_double_areas
 from ..layout.placement import pack_islands
-from ..mesh.halfedges import unit_of
+from ..mesh.halfedges import unique_sorted, unit_of
 from ..mesh.islands import Islands, first_rows
 from ..mesh.topology import build_topology
 from ..options import Options, Problem
@@ -69,7 +69,7 @@ def sub_problem(problem: Problem, faces: np.ndarray) -> tuple[Problem, np.ndarra
     vertices they use, and those vertices (j,) (its vertex i is the problem's ``used[i]``):
     seams and inner edges between two of them kept, per-face data taken."""
     V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
-    used = np.unique(F[faces])
+    used = unique_sorted(F[faces])
     index = np.full(len(V), -1, dtype=np.int64)
     index[used] = np.arange(len(used))
 

@@ -20,7 +20,7 @@ from scipy.sparse.linalg import splu
 
 from ..errors import ErrorKind, InvalidMeshError, offenders
 from ..geometry import signed_double_areas
-from ..mesh.halfedges import pair_keys
+from ..mesh.halfedges import pair_keys, unique_sorted
 from ..mesh.islands import Islands
 from ..refinement.descent import Refinement
 from .placement import apply_similarity, place, similarity_fit
@@ -232,7 +232,7 @@ def pins_on_islands(topo, corners, islands: Islands, unit: float, n_mesh: int) -
     target = target / unit
     count = np.bincount(islands.label, pinned, minlength=islands.n)
     # the copies of one pinned vertex split by a seam or cut count once
-    pairs = np.unique(pair_keys(islands.label[pinned], topo.vertex_of[pinned], n_mesh, ordered=True))
+    pairs = unique_sorted(pair_keys(islands.label[pinned], topo.vertex_of[pinned], n_mesh, ordered=True))
     distinct = np.bincount(pairs // n_mesh, minlength=islands.n)
     spread = similarity_fit(target, target, islands, pinned).ok  # pinned, and not all on one UV
     one_point = (distinct >= 2) & ~spread

@@ -13,7 +13,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from ..geometry import TINY, corner_signed_areas
-from ..mesh.halfedges import pair_keys
+from ..mesh.halfedges import pair_keys, unique_sorted
 from ..mesh.islands import Islands, Labelled
 from ..overlap import uv_points
 from .placement import Similarity, apply_similarity, boxes, choose, identity, rotated, shelves, similarity_fit
@@ -303,7 +303,7 @@ def _old_groups(island, n, corner_vertex, old, held):
     _, group = np.unique(label[:n], return_inverse=True)
     group = group.ravel()
     count = int(group.max(initial=-1)) + 1
-    pair = np.unique(pair_keys(group[island], old_island, k, ordered=True))
+    pair = unique_sorted(pair_keys(group[island], old_island, k, ordered=True))
     return group, count, np.bincount(pair // k, minlength=count) == 1
 
 

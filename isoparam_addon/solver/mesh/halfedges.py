@@ -37,6 +37,7 @@ __all__ = [
     "fans",
     "orientation",
     "pair_keys",
+    "unique_sorted",
     "split",
     "unique_edges",
     "unit_of",
@@ -65,6 +66,23 @@ def pair_keys(a, b, n: int, ordered: bool = False) -> np.ndarray:
     if not ordered:
         a, b = np.minimum(a, b), np.maximum(a, b)
     return a * np.int64(n) + b
+
+
+def unique_sorted(a) -> np.ndarray:
+    """The distinct values of ``a``, sorted: ``np.unique(a)`` by a sort and a mask.
+
+    numpy 2.3+ finds the distinct values of integer arrays with a hash table before
+    sorting them, which on millions of keys spread over a wide range (pair keys, vertex
+    ids) takes 20-30x a sort (2.1 s against 0.07 s on 3M int64, numpy 2.4); numpy 1.x's
+    ``np.unique`` is this sort.
+    """
+    s = np.sort(np.asarray(a).ravel())
+    if len(s) < 2:
+        return s
+    keep = np.empty(len(s), dtype=bool)
+    keep[0] = True
+    np.not_equal(s[1:], s[:-1], out=keep[1:])
+    return s[keep]
 
 
 def _array(x, name: str, dtype) -> np.ndarray:
@@ -138,7 +156,9 @@ def check(vertices, faces, split_nonmanifold: bool = True):
         dup = order[1:][fkey[order[1:]] == fkey[order[:-1]]]
     else:
         _, first = np.unique(s, axis=0, return_index=True)
-        dup = np.setdiff1d(np.arange(len(F)), first)
+        keep = np.ones(len(F), dtype=bool)
+        keep[first] = False
+        dup = np.flatnonzero(keep)
     dup = np.sort(dup)
     if dup.size and not split_nonmanifold:
         raise offenders(ErrorKind.DUPLICATE_FACE, "repeat the vertices of an earlier face", "face", dup)

@@ -16,7 +16,19 @@ from scipy.sparse import csgraph
 from ..errors import SolverError
 from ..geometry import face_areas
 from .cutgraph import cut_to_disks
-from .halfedges import Defects, Fans, HalfEdges, check, edge_mask, face_components, fans, orientation, split, unit_of
+from .halfedges import (
+    Defects,
+    Fans,
+    HalfEdges,
+    check,
+    edge_mask,
+    face_components,
+    fans,
+    orientation,
+    split,
+    unique_sorted,
+    unit_of,
+)
 
 __all__ = ["Topology", "build_topology"]
 
@@ -90,7 +102,7 @@ def _island_counts(Fs, ns, he, face_island, n_islands):
     _, lab = csgraph.connected_components(graph, directed=False)
     on_bnd = np.zeros(ns, dtype=bool)
     on_bnd[ev.ravel()] = True
-    loops = np.unique(lab[on_bnd])
+    loops = unique_sorted(lab[on_bnd])
     loop_island = np.full(lab.max() + 1, -1, dtype=np.int64)
     loop_island[lab[on_bnd]] = v_isl[on_bnd]
     n_loops = np.bincount(loop_island[loops], minlength=n_islands)

@@ -33,7 +33,7 @@ from typing import Self
 import numpy as np
 
 from ..geometry import safe_divide, sum_products
-from ..mesh.halfedges import HalfEdges
+from ..mesh.halfedges import HalfEdges, unique_sorted
 from ..overlap import _pairs_in_cells, crossings
 
 __all__ = ["Boundary", "Contact", "Near"]
@@ -339,7 +339,7 @@ class Contact(Boundary):
         near = self.near(x, which)
         v, e = near.vertex, near.edge
         d = _distances(x, v, self.edges[e, 0], self.edges[e, 1])[0]
-        touching = np.unique(v[d < _APART * self.gap[e] / _GAP])
+        touching = unique_sorted(v[d < _APART * self.gap[e] / _GAP])
         if not len(touching):
             return x
         step = np.zeros(len(x))
