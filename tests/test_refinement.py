@@ -176,6 +176,31 @@ def test_a_large_island_beside_small_ones_is_refined_as_it_would_be_alone(monkey
         assert procrustes_error(alone.corner_uv.reshape(-1, 2), mine.reshape(-1, 2)) < 1e-7
 
 
+def test_the_energy_descended_is_that_of_the_layout_and_its_barrier(monkeypatch):
+    # Suzanne charted: islands in contact beside a large one whose line search backtracks
+    # over every face; after every iteration each island's energy is the symmetric Dirichlet
+    # energy of its layout plus the barrier of its boundary pairs (one left out stops an
+    # island early: the next step, measured with it, never lowers the energy)
+    from isoparam_addon.operation.options import DEFAULTS
+    from isoparam_addon.solver.refinement import descent
+
+    checked = []
+    converged = descent._converged
+
+    def spy(d):
+        if d.watch.on and d.watch._list is not None:
+            barrier, _ = d.watch.barrier(d.x, d.watch._list.pairs)
+            dirichlet, _ = d.energies(d.J)
+            np.testing.assert_allclose(d.E, dirichlet + barrier, rtol=1e-9)
+            checked.append(float(barrier.max()))
+        converged(d)
+
+    monkeypatch.setattr(descent, "_converged", spy)
+    V, F = ex.suzanne_closed()
+    parametrize(V, F, options=DEFAULTS.solver_options())  # as the operator unwraps
+    assert max(checked) > 0  # a barrier acted
+
+
 def test_a_slow_island_goes_on_alone_where_it_left_off(monkeypatch):
     # a developable S-surface (done after 1 iteration) beside a closed box (11): once the
     # box is all that descends it goes on with its own proxy and the same L-BFGS state,

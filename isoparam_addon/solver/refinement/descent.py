@@ -543,7 +543,10 @@ def _line_search(d: _Descent, p: np.ndarray, slope: np.ndarray) -> _Step:
         f = None if Jt is None else per_face.members(searching)
         if Jt is None or f is None or 2 * len(f) > len(d.area):
             Jt = tuple(j + per_face.expand(t) * dj for j, dj in zip(d.J, dJ))
-            Et, Gt_ = d.energies(Jt)
+            E_all, Gt_ = d.energies(Jt)
+            # (an island done searching keeps its energy: its barrier is added below only
+            # while it searches)
+            Et = np.where(searching, E_all, Et)
             Gt = list(Gt_)
         else:  # few faces still searching: evaluate only theirs, the rest stands
             tf = t[per_face.label[f]]
