@@ -32,7 +32,11 @@ search.
 **Stopping.** An island stops when its energy fell by less than ``tol`` (relative) over
 the last 5 iterations, or by less than a hundredth of that over the last one, or when no
 step along a descent direction lowers it; the
-iteration cap is a safety net, not the usual exit.
+iteration cap is a safety net, not the usual exit. A step that a face about to collapse
+(or contact) cut short does not stop an island by the last iteration's test: its small
+decrease measures the cap, not the distance to the optimum (islands far from isometric
+stopped at up to 1.5 times their optimum's energy whenever a capped step came at the
+wrong moment, which rounding decides).
 
 Islands are independent problems and are treated as such: each has its own start, ARAP
 acceptance, step length, line search, L-BFGS memory, proxy weights and stopping test
@@ -284,7 +288,9 @@ class _Reweighting:
 class _Step:
     """A step the line search found: per island its length ``t`` (0: none) along ``p``
     (n, 2), and there the Jacobians ``J``, energies ``E``, derivatives dE/dJ ``G`` and
-    the barrier's gradient ``gb`` (n, 2); ``dJ``, the Jacobians of ``p``."""
+    the barrier's gradient ``gb`` (n, 2); ``dJ``, the Jacobians of ``p``; ``capped``,
+    the islands whose longest step tried was cut below 1 (a face about to collapse, or
+    its boundary about to touch itself)."""
 
     p: np.ndarray
     t: np.ndarray
@@ -293,6 +299,7 @@ class _Step:
     G: list
     dJ: tuple  # noqa: N815 - paper-style, as J: the Jacobians of p
     gb: np.ndarray
+    capped: np.ndarray
 
 
 # ---------------------------------------------------------------- the descent's state
@@ -538,6 +545,7 @@ def _line_search(d: _Descent, p: np.ndarray, slope: np.ndarray) -> _Step:
     gb = d.gb
     near, meet = watch.near_step(d.x, p, t, searching)
     t = np.minimum(t, 0.9 * watch.first_contact(d.x, p, meet))  # (no boundary crosses on the way)
+    capped = t < 1.0
     followed = watch.followed(p, t)
     while searching.any():
         f = None if Jt is None else per_face.members(searching)
@@ -579,21 +587,23 @@ def _line_search(d: _Descent, p: np.ndarray, slope: np.ndarray) -> _Step:
     still = per_face.expand(t == 0)
     Jt = tuple(np.where(still, j, jt) for j, jt in zip(d.J, Jt))
     gb = np.where(islands.spread(t == 0), d.gb, gb)
-    return _Step(p, t, Jt, np.where(t == 0, d.E, Et), Gt, dJ, gb)
+    return _Step(p, t, Jt, np.where(t == 0, d.E, Et), Gt, dJ, gb, capped)
 
 
 # ---------------------------------------------------------------- the stopping test
 
 
-def _converged(desc: _Descent) -> None:
+def _converged(desc: _Descent, capped: np.ndarray) -> None:
     """Stop the islands whose energy fell by less than ``tol`` over the last
     ``_WINDOW`` iterations, or by less than ``tol / 100`` over the last one (an island
-    that was converged when the descent began)."""
+    that was converged when the descent began) unless that step was ``capped``
+    (n_islands,) bool: cut short by a face about to collapse or by contact, its small
+    decrease measures the cap, not the distance to the optimum."""
     last = desc.history[-1] if desc.history else None
     desc.history = [*desc.history, desc.E][-(_WINDOW + 1) :]
     pending = desc.watch.pending
     if last is not None:
-        desc.active &= ~(last - desc.E < 0.01 * desc.tol * desc.E) | pending
+        desc.active &= ~(last - desc.E < 0.01 * desc.tol * desc.E) | pending | capped
     if len(desc.history) > _WINDOW:
         desc.active &= ~(desc.history[0] - desc.E < desc.tol * desc.E) | pending
 
@@ -754,7 +764,7 @@ def _descend(d: _Descent, iterations: int) -> _Descent:
         if not (step.t > 0).any() and not d.watch.pending.any():
             break
         g = d.step(step, g)
-        _converged(d)
+        _converged(d, step.capped)
         d.out.energy.append(d.mean_energy(d.E))
         d.out.iterations = it
         if not d.active.any():
