@@ -37,9 +37,9 @@ __all__ = [
     "fans",
     "orientation",
     "pair_keys",
-    "unique_sorted",
     "split",
     "unique_edges",
+    "unique_sorted",
     "unit_of",
 ]
 

@@ -299,7 +299,7 @@ class _Step:
     G: list
     dJ: tuple  # noqa: N815 - paper-style, as J: the Jacobians of p
     gb: np.ndarray
-    capped: np.ndarray
+    capped: np.ndarray  # (n_islands,) bool
 
 
 # ---------------------------------------------------------------- the descent's state
