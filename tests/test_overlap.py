@@ -121,7 +121,7 @@ def test_the_face_graph_of_some_islands_is_the_whole_graph_among_them():
     assert np.array_equal(whole.centroids, part.centroids)
 
 
-def test_pairs_asked_for_some_items_are_the_pairs_that_hold_them(rng):
+def test_pairs_asked_for_some_items_or_across_two_kinds_are_those_of_the_boxes_that_meet(rng):
     lo = rng.uniform(0.0, 10.0, size=(400, 2))
     hi = lo + rng.exponential(0.3, size=(400, 2)) * np.where(rng.uniform(size=(400, 1)) < 0.05, 20.0, 1.0)
     group = rng.integers(0, 3, 400)
@@ -136,3 +136,9 @@ def test_pairs_asked_for_some_items_are_the_pairs_that_hold_them(rng):
     assert set(zip(i.tolist(), j.tolist())) == brute
     asked = set(zip(*_pairs_in_cells(lo, hi, group, 0.6, query)))
     assert asked == {(a, b) for a, b in brute if query[a] or query[b]} and asked
+    # points against segments: only the pairs across the two kinds, the first kind first
+    across = rng.uniform(size=400) < 0.4
+    crossed = {(a, b) if across[b] else (b, a) for a, b in brute if across[a] != across[b]}
+    assert set(zip(*_pairs_in_cells(lo, hi, group, 0.6, across=across))) == crossed and crossed
+    asked = set(zip(*_pairs_in_cells(lo, hi, group, 0.6, query, across)))
+    assert asked == {(a, b) for a, b in crossed if query[a] or query[b]} and asked

@@ -33,10 +33,19 @@ __all__ = [
 ]
 
 
-def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: float, query: np.ndarray | None = None):
+def _pairs_in_cells(
+    lo: np.ndarray,
+    hi: np.ndarray,
+    group: np.ndarray,
+    cell: float,
+    query: np.ndarray | None = None,
+    across: np.ndarray | None = None,
+):
     """Pairs (i < j) of items whose boxes ``lo``/``hi`` (k, 2) meet and that belong to the
     same ``group`` (k,): (p,) and (p,) int64, each pair once. With ``query`` (k,) bool,
-    only the pairs that hold a query item (cells without one are not paired at all).
+    only the pairs that hold a query item (cells without one are not paired at all). With
+    ``across`` (k,) bool, only the pairs of an item not ``across`` (i) with one that is (j):
+    points against segments, say, with no pair of two points or two segments made at all.
 
     A grid per size class (a loose quadtree, flattened): an item whose box is wider than
     ``cell`` goes to the grid whose cells are the smallest power of two times ``cell`` at
@@ -55,44 +64,80 @@ def _pairs_in_cells(lo: np.ndarray, hi: np.ndarray, group: np.ndarray, cell: flo
     lo_, hi_ = np.ascontiguousarray(lo.T), np.ascontiguousarray(hi.T)
     found = []
     for top in unique_sorted(level):  # a few size classes, each one whole-array pass
-        held = np.flatnonzero(level <= top)
-        size = cell * 2.0 ** float(top)
-        c0 = np.floor((lo[held] - base) / size).astype(np.int64)
-        c1 = np.floor((hi[held] - base) / size).astype(np.int64)
-        span = c1 - c0 + 1
-        count = span[:, 0] * span[:, 1]
-        slot = np.repeat(np.arange(len(held)), count)
-        offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-        cx = c0[slot, 0] + offset % span[slot, 0]
-        cy = c0[slot, 1] + offset // span[slot, 0]
-        width = int(c1[:, 0].max()) + 1
-        key = (group[held[slot]] * (int(c1[:, 1].max()) + 1) + cy) * width + cx
-        own = level[held[slot]] == top
-        order = np.lexsort((~own, key))  # per cell, this grid's own items first
-        key, item, own = key[order], held[slot[order]], own[order]
-        if query is not None:  # the cells that hold a query item
-            first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-            asked = np.repeat(np.maximum.reduceat(query[item], first), np.diff(np.r_[first, len(key)]))
-            key, item, own = key[asked], item[asked], own[asked]
-        start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-        size_ = np.diff(np.r_[start, len(key)])
-        # every own item with each later item of its cell (own first: every pair once per cell)
-        pos = np.arange(len(key))
-        later = np.where(own, np.repeat(start + size_, size_) - pos - 1, 0)
-        a = np.repeat(pos, later)
-        b = a + 1 + (np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later))
-        i, j = item[a], item[b]
+        key, item = _grid_cells(lo, hi, group, np.flatnonzero(level <= top), base, cell * 2.0 ** float(top))
+        if query is not None:  # only the cells that hold a query item
+            asked = unique_sorted(key[query[item]])
+            if not len(asked):
+                continue
+            held = asked[np.minimum(np.searchsorted(asked, key), len(asked) - 1)] == key
+            key, item = key[held], item[held]
+        own = level[item] == top
+        pair = _cell_pairs if across is None else _cell_pairs_across
+        i, j = pair(key, item, own, across)
         if query is not None:
             asked = query[i] | query[j]
             i, j = i[asked], j[asked]
-        meet = i != j  # (boxes apart: items apart; one coordinate array at a time, as numpy is fastest)
+        meet = np.ones(len(i), dtype=bool)  # (one coordinate array at a time, as numpy is fastest)
         for c in range(2):
             meet &= (lo_[c][i] <= hi_[c][j]) & (lo_[c][j] <= hi_[c][i])
         found.append(np.stack([i[meet], j[meet]]))
+    if not found:
+        return empty, empty
     i, j = np.concatenate(found, axis=1)
     keep = i != j
-    pair = unique_sorted(pair_keys(i[keep], j[keep], k))
+    pair = unique_sorted(pair_keys(i[keep], j[keep], k, ordered=across is not None))
     return pair // k, pair % k
+
+
+def _grid_cells(lo, hi, group, held, base, size):
+    """The cells of size ``size`` (from ``base``) that the boxes of the items ``held`` cover,
+    as keys (one per group and cell) and the item in each, one row per item and cell."""
+    c0 = np.floor((lo[held] - base) / size).astype(np.int64)
+    c1 = np.floor((hi[held] - base) / size).astype(np.int64)
+    span = c1 - c0 + 1
+    count = span[:, 0] * span[:, 1]
+    slot = np.repeat(np.arange(len(held)), count)
+    offset = _ranges(np.zeros_like(count), count)
+    cx = c0[slot, 0] + offset % span[slot, 0]
+    cy = c0[slot, 1] + offset // span[slot, 0]
+    width = int(c1[:, 0].max()) + 1
+    return (group[held[slot]] * (int(c1[:, 1].max()) + 1) + cy) * width + cx, held[slot]
+
+
+def _ranges(start: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """``start[r] + 0 .. count[r] - 1`` for every row r, one after the other."""
+    return np.repeat(start - np.cumsum(count) + count, count) + np.arange(int(count.sum()))
+
+
+def _cell_pairs(key, item, own, across):
+    """Per cell (equal ``key``), every own item with every later item of the cell: sorted
+    own first, every pair of the cell is made once and a pair of two items held from finer
+    grids is left to those."""
+    order = np.lexsort((~own, key))
+    key, item, own = key[order], item[order], own[order]
+    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    size = np.diff(np.r_[start, len(key)])
+    pos = np.arange(len(key))
+    later = np.where(own, np.repeat(start + size, size) - pos - 1, 0)
+    return item[np.repeat(pos, later)], item[_ranges(pos + 1, later)]
+
+
+def _cell_pairs_across(key, item, own, across):
+    """Per cell (equal ``key``), every item not ``across`` with the items across it: all of
+    them where it is own, else the own ones (sorted first within the cell)."""
+    side = across[item]
+    order = np.lexsort((2 * side + ~own, key))  # per cell: one side, then the other, own first
+    key, item, own, side = key[order], item[order], own[order], side[order]
+    first = np.r_[True, key[1:] != key[:-1]]
+    start = np.flatnonzero(first)
+    cell = np.cumsum(first) - 1
+    n_other = np.add.reduceat(side.astype(np.int64), start)
+    n_this = np.diff(np.r_[start, len(key)]) - n_other
+    n_own = np.add.reduceat((side & own).astype(np.int64), start)
+    pos = np.flatnonzero(~side)
+    cell = cell[pos]
+    count = np.where(own[pos], n_other[cell], n_own[cell])
+    return item[np.repeat(pos, count)], item[_ranges(start[cell] + n_this[cell], count)]
 
 
 def _cell(lo: np.ndarray, hi: np.ndarray) -> float:

@@ -42,7 +42,7 @@ _GAP = 0.5  # the barrier starts this share of its edge's length away
 _STIFFNESS = 1.0  # the barrier's scale, in the energies of a face on its edge (an equilateral one)
 _APART = 1e-3  # banks that start in contact are pushed this share of an edge apart
 _FOLLOWED = 4.0  # contact is followed along a step within this many gaps of every vertex
-_SKIN = 2.0  # pairs are listed this many gaps beyond a step's reach, and the list kept while it covers the steps
+_SKIN = 0.5  # pairs are listed this many gaps beyond a step's reach, and the list kept while it covers the steps
 _CLOSER = 0.9  # a pair acts once it is this much nearer than on the surface ...
 _SAME = 1e-3  # ... unless it is this near on the surface (as a share of the gap): copies of a vertex
 _TOUCHING = 0.1  # an island with a pair this near (share of the gap) at the start is watched from there
@@ -248,7 +248,8 @@ class Contact(Boundary):
         # test of its end for crossings refuses it, see :meth:`crossing`)
         move = np.zeros(len(x)) if motion is None else np.minimum(motion, (_FOLLOWED + _SKIN) * self._vertex_gap())
         # vertex points and edge boxes grown by the edge's gap and the motion: pairs of a
-        # vertex with an edge whose box holds it (one grid pass, boxes of every size)
+        # vertex with an edge whose box holds it (one grid pass, boxes of every size, no pair
+        # of two vertices or two edges)
         vertices = edges[:, 0]  # (each boundary vertex starts one edge)
         a, b = x[edges[:, 0]], x[edges[:, 1]]
         pad = (self.gap[on] + np.maximum(move[edges[:, 0]], move[edges[:, 1]]))[:, None]
@@ -257,9 +258,9 @@ class Contact(Boundary):
         box_hi = np.vstack([x[vertices] + move[vertices, None], np.maximum(a, b) + pad])
         cell = float(max(2.0 * np.median(box_hi[k:] - box_lo[k:]), 1e-300))
         query = None if moved is None else np.concatenate([moved[vertices], moved[edges].any(axis=1)])
-        i, j = _pairs_in_cells(box_lo, box_hi, np.concatenate([island, island]), cell, query)
-        mixed = (i < k) != (j < k)
-        v, e = vertices[np.minimum(i, j)[mixed]], on[np.maximum(i, j)[mixed] - k]
+        is_edge = np.arange(2 * k) >= k
+        i, j = _pairs_in_cells(box_lo, box_hi, np.concatenate([island, island]), cell, query, across=is_edge)
+        v, e = vertices[i], on[j - k]
         # not an edge of the vertex's own
         a_, b_ = E[e, 0], E[e, 1]
         keep = (a_ != v) & (b_ != v)
