@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from isoparam_addon.operation.options import DEFAULTS
-from isoparam_addon.solver import WarningKind, metrics, parametrize
-from isoparam_addon.solver.overlap import _pairs_in_cells, crossings, overlapping_faces, shared_area
+from isoparam_addon.solver import WarningKind, metrics, overlap, parametrize
+from isoparam_addon.solver.overlap import _pairs_in_cells, box_pairs, crossings, overlapping_faces, shared_area
 from isoparam_eval import meshes as ex
 
 
@@ -121,12 +121,23 @@ def test_the_face_graph_of_some_islands_is_the_whole_graph_among_them():
     assert np.array_equal(whole.centroids, part.centroids)
 
 
-def test_pairs_asked_for_some_items_or_across_two_kinds_are_those_of_the_boxes_that_meet(rng):
-    lo = rng.uniform(0.0, 10.0, size=(400, 2))
+@pytest.mark.parametrize(
+    ("pairs", "column"),
+    [(box_pairs, False), (box_pairs, True), (_pairs_in_cells, False)],
+    ids=["sweep", "boxes stacked along u: the grid", "grid"],
+)
+def test_pairs_asked_for_some_items_or_across_two_kinds_are_those_of_the_boxes_that_meet(
+    rng, monkeypatch, pairs, column
+):
+    lo = rng.uniform(0.0, 10.0, size=(400, 2)) * [4.0, 1.0]
+    if column:  # (a straight boundary along v: every box meets every other along u)
+        lo[:, 0] = rng.uniform(0.0, 0.01, size=400)
     hi = lo + rng.exponential(0.3, size=(400, 2)) * np.where(rng.uniform(size=(400, 1)) < 0.05, 20.0, 1.0)
+    gridded = []
+    monkeypatch.setattr(overlap, "_pairs_in_cells", lambda *a: gridded.append(a) or _pairs_in_cells(*a))
     group = rng.integers(0, 3, 400)
     query = rng.uniform(size=400) < 0.1
-    i, j = _pairs_in_cells(lo, hi, group, 0.6)
+    i, j = pairs(lo, hi, group, 0.6)
     brute = {
         (a, b)
         for a in range(400)
@@ -134,11 +145,12 @@ def test_pairs_asked_for_some_items_or_across_two_kinds_are_those_of_the_boxes_t
         if group[a] == group[b] and (lo[a] <= hi[b]).all() and (lo[b] <= hi[a]).all()
     }
     assert set(zip(i.tolist(), j.tolist())) == brute
-    asked = set(zip(*_pairs_in_cells(lo, hi, group, 0.6, query)))
+    asked = set(zip(*pairs(lo, hi, group, 0.6, query)))
     assert asked == {(a, b) for a, b in brute if query[a] or query[b]} and asked
     # points against segments: only the pairs across the two kinds, the first kind first
     across = rng.uniform(size=400) < 0.4
     crossed = {(a, b) if across[b] else (b, a) for a, b in brute if across[a] != across[b]}
-    assert set(zip(*_pairs_in_cells(lo, hi, group, 0.6, across=across))) == crossed and crossed
-    asked = set(zip(*_pairs_in_cells(lo, hi, group, 0.6, query, across)))
+    assert set(zip(*pairs(lo, hi, group, 0.6, across=across))) == crossed and crossed
+    asked = set(zip(*pairs(lo, hi, group, 0.6, query, across)))
     assert asked == {(a, b) for a, b in crossed if query[a] or query[b]} and asked
+    assert bool(gridded) == (column and pairs is box_pairs)  # (which way was taken)

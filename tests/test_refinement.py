@@ -191,8 +191,10 @@ def test_the_energy_descended_is_that_of_the_layout_and_its_barrier(monkeypatch)
         if d.watch.on and d.watch._list is not None:
             barrier, _ = d.watch.barrier(d.x, d.watch._list.pairs)
             dirichlet, _ = d.energies(d.J)
-            np.testing.assert_allclose(d.E, dirichlet + barrier, rtol=1e-9)
-            checked.append(float(barrier.max()))
+            # (the islands the list follows: one done descending may have left it)
+            listed = d.watch._list.which | ~d.watch.watched
+            np.testing.assert_allclose(d.E[listed], (dirichlet + barrier)[listed], rtol=1e-9)
+            checked.append(float(barrier[listed].max()))
         converged(d, capped)
 
     monkeypatch.setattr(descent, "_converged", spy)

@@ -25,12 +25,87 @@ from .mesh.halfedges import pair_keys, unique_sorted
 __all__ = [
     "Overlaps",
     "boundary_crossings",
+    "box_pairs",
     "crossings",
     "overlapping_faces",
     "self_overlaps",
     "shared_area",
     "uv_points",
 ]
+
+
+_SWEPT = 64  # the sweep is kept while it tests at most this many pairs per item; else the grid
+
+
+def box_pairs(
+    lo: np.ndarray,
+    hi: np.ndarray,
+    group: np.ndarray,
+    cell: float,
+    query: np.ndarray | None = None,
+    across: np.ndarray | None = None,
+):
+    """Pairs (i < j) of items whose boxes ``lo``/``hi`` (k, 2) meet and that belong to the
+    same ``group`` (k,): (p,) and (p,) int64, sorted, each pair once. With ``query`` (k,)
+    bool, only the pairs that hold a query item. With ``across`` (k,) bool, only the pairs
+    of an item not ``across`` (i) with one that is (j): points against segments, say, with
+    no pair of two points or two segments made at all.
+
+    First a sweep along u (:func:`_swept`): a few whole-array passes, which is what a
+    boundary of a few hundred edges needs. Where boxes stack along u (a straight boundary
+    running along v, a layout with many islands side by side) the sweep would test too
+    many pairs, and a grid of cells about ``cell`` wide pairs them instead
+    (:func:`_pairs_in_cells`).
+    """
+    k = len(lo)
+    empty = np.zeros(0, dtype=np.int64)
+    if k < 2 or (query is not None and not query.any()):
+        return empty, empty
+    swept = _swept(lo[:, 0], hi[:, 0], group, across, _SWEPT * k)
+    if swept is None:
+        return _pairs_in_cells(lo, hi, group, cell, query, across)
+    i, j = swept
+    if query is not None:
+        asked = query[i] | query[j]
+        i, j = i[asked], j[asked]
+    lo_v, hi_v = lo[:, 1], hi[:, 1]
+    meet = (lo_v[i] <= hi_v[j]) & (lo_v[j] <= hi_v[i])
+    i, j = i[meet], j[meet]
+    pair = np.sort(pair_keys(i, j, k, ordered=across is not None))
+    return pair // k, pair % k
+
+
+def _swept(lo_u: np.ndarray, hi_u: np.ndarray, group: np.ndarray, across: np.ndarray | None, limit: int):
+    """The pairs of items of one ``group`` whose intervals ``lo_u``..``hi_u`` (k,) meet, by a
+    sweep: the ends of every interval sorted (by group, then u, starts before ends), the
+    pair of i and j is made once, from the one whose start comes first, as the other's
+    start lies between its start and its end. With ``across``, only pairs of an item not
+    across with one that is, in that order. None if they would be more than ``limit``."""
+    k = len(lo_u)
+    ends = np.repeat(np.array([False, True]), k)
+    order = np.lexsort((ends, np.concatenate([lo_u, hi_u]), np.concatenate([group, group])))
+    start, item = ~ends[order], order % k
+    sides = [None] if across is None else [False, True]
+    side = np.zeros(len(order), dtype=bool) if across is None else across[item]
+    made = []
+    for this in sides:
+        # the starts of the items it pairs with, in order, and how many come before each event
+        other = start if this is None else start & (side != this)
+        passed = np.cumsum(other)
+        mine = ~side if this is None else side == this
+        first, last = np.empty(k, dtype=np.int64), np.empty(k, dtype=np.int64)
+        first[item[start & mine]] = passed[start & mine]
+        last[item[~start & mine]] = passed[~start & mine]
+        held = item[start & mine]
+        count = last[held] - first[held]
+        made.append((held, count, item[other], first[held]))
+    if sum(int(count.sum()) for _, count, _, _ in made) > limit:
+        return None
+    pairs = [(np.repeat(held, count), starts[_ranges(at, count)]) for held, count, starts, at in made]
+    if across is None:
+        return pairs[0]
+    (i0, j0), (j1, i1) = pairs  # (the second pass holds items across: turned back)
+    return np.concatenate([i0, i1]), np.concatenate([j0, j1])
 
 
 def _pairs_in_cells(
@@ -41,11 +116,7 @@ def _pairs_in_cells(
     query: np.ndarray | None = None,
     across: np.ndarray | None = None,
 ):
-    """Pairs (i < j) of items whose boxes ``lo``/``hi`` (k, 2) meet and that belong to the
-    same ``group`` (k,): (p,) and (p,) int64, each pair once. With ``query`` (k,) bool,
-    only the pairs that hold a query item (cells without one are not paired at all). With
-    ``across`` (k,) bool, only the pairs of an item not ``across`` (i) with one that is (j):
-    points against segments, say, with no pair of two points or two segments made at all.
+    """:func:`box_pairs` by a grid (cells without a query item are not paired at all).
 
     A grid per size class (a loose quadtree, flattened): an item whose box is wider than
     ``cell`` goes to the grid whose cells are the smallest power of two times ``cell`` at
@@ -56,8 +127,6 @@ def _pairs_in_cells(
     """
     k = len(lo)
     empty = np.zeros(0, dtype=np.int64)
-    if k < 2 or (query is not None and not query.any()):
-        return empty, empty
     base = lo.min(axis=0)
     extent = np.max(hi - lo, axis=1)
     level = np.ceil(np.log2(np.maximum(extent / cell, 1.0))).astype(np.int64)
@@ -157,7 +226,7 @@ def crossings(uv: np.ndarray, edges: np.ndarray, group: np.ndarray):
     point are not tested (they meet there). Returns (p,) and (p,) indices into ``edges``."""
     P, Q = uv[edges[:, 0]], uv[edges[:, 1]]
     lo, hi = np.minimum(P, Q), np.maximum(P, Q)
-    i, j = _pairs_in_cells(lo, hi, group, _cell(lo, hi))
+    i, j = box_pairs(lo, hi, group, _cell(lo, hi))
     shared = (edges[i, 0] == edges[j, 0]) | (edges[i, 0] == edges[j, 1]) | (edges[i, 1] == edges[j, 0])
     shared |= edges[i, 1] == edges[j, 1]
     i, j = i[~shared], j[~shared]
@@ -177,7 +246,7 @@ def overlapping_faces(cuv: np.ndarray, faces: np.ndarray, group: np.ndarray):
         empty = np.zeros(0, dtype=np.int64)
         return empty, empty
     lo, hi = cuv.min(axis=1), cuv.max(axis=1)
-    i, j = _pairs_in_cells(lo, hi, group, _cell(lo, hi))
+    i, j = box_pairs(lo, hi, group, _cell(lo, hi))
     meet = ((lo[i] <= hi[j]) & (lo[j] <= hi[i])).all(axis=1)  # boxes apart: triangles apart
     i, j = i[meet], j[meet]
     shared = (faces[i][:, :, None] == faces[j][:, None, :]).any(axis=(1, 2))

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..geometry import safe_divide, sum_products
 from ..mesh.halfedges import HalfEdges, unique_sorted
-from ..overlap import _pairs_in_cells, crossings
+from ..overlap import box_pairs, crossings
 
 __all__ = ["Boundary", "Contact", "Near"]
 
@@ -259,7 +259,7 @@ class Contact(Boundary):
         cell = float(max(2.0 * np.median(box_hi[k:] - box_lo[k:]), 1e-300))
         query = None if moved is None else np.concatenate([moved[vertices], moved[edges].any(axis=1)])
         is_edge = np.arange(2 * k) >= k
-        i, j = _pairs_in_cells(box_lo, box_hi, np.concatenate([island, island]), cell, query, across=is_edge)
+        i, j = box_pairs(box_lo, box_hi, np.concatenate([island, island]), cell, query, across=is_edge)
         v, e = vertices[i], on[j - k]
         # not an edge of the vertex's own
         a_, b_ = E[e, 0], E[e, 1]
