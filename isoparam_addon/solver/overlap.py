@@ -141,8 +141,8 @@ def _pairs_in_cells(
             held = asked[np.minimum(np.searchsorted(asked, key), len(asked) - 1)] == key
             key, item = key[held], item[held]
         own = level[item] == top
-        pair = _cell_pairs if across is None else _cell_pairs_across
-        i, j = pair(key, item, own, across)
+        pairing = _cell_pairs if across is None else _cell_pairs_across
+        i, j = pairing(key, item, own, across)
         if query is not None:
             asked = query[i] | query[j]
             i, j = i[asked], j[asked]
