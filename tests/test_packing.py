@@ -217,3 +217,23 @@ def test_rings_folds_and_dense_islands_keep_their_margin():
         assert islands_overlapping(out, island) == 0
         if margin:
             assert least_gap(out, island, spacing=margin / 2) >= 2 * margin * (1 - 1e-9)
+
+
+def test_the_table_of_cells_taken_kept_as_boxes_are_placed_is_the_table_made_anew(rng):
+    # the box phase keeps its summed-area table of the cells taken as it places boxes,
+    # rather than summing the grid again for every box: the two agree cell for cell
+    grid = rng.uniform(size=(40, 60)) < 0.1
+    counts = np.zeros((41, 61), dtype=np.int32)
+    np.cumsum(np.cumsum(grid, axis=0, dtype=np.int32), axis=1, out=counts[1:, 1:])
+    placed = 0
+    for _ in range(200):
+        w, h = rng.integers(1, 9, size=2)
+        x, y = rng.integers(0, 60 - w + 1), rng.integers(0, 40 - h + 1)
+        if grid[y : y + h, x : x + w].any():
+            continue  # (only free boxes are placed)
+        grid[y : y + h, x : x + w] = True
+        packing._count_box(counts, int(x), int(y), int(w), int(h))
+        placed += 1
+    anew = np.zeros_like(counts)
+    np.cumsum(np.cumsum(grid, axis=0, dtype=np.int32), axis=1, out=anew[1:, 1:])
+    assert placed > 10 and np.array_equal(counts, anew)

@@ -520,11 +520,13 @@ def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: 
     :func:`_place` does. Returns per box its lower-left cell (k, 2) and quarter turn (0 or
     1).
 
-    Where a box fits is read off a summed-area table of the cells taken, made once per run
-    of boxes of one size; each box placed then rules out the positions it covers."""
+    Where a box fits is read off a summed-area table of the cells taken (kept as boxes are
+    placed, made again only where the cells in question outgrow it), once per run of
+    boxes of one size; each box placed then rules out the positions it covers."""
     k = len(cells)
     where = np.zeros((k, 2), dtype=np.int64)
     turn = np.zeros(k, dtype=np.int64)
+    counts = np.zeros((1, 1), dtype=np.int32)  # counts[Y, X]: cells taken in grid[:Y, :X]
     i = 0
     while i < k:
         progress.tick(i / max(k, 1))
@@ -535,15 +537,19 @@ def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: 
         reach = max(w0, h0)
         grid = _room(grid, max(ex, ey) + reach)
         ax, ay = min(ex + reach, grid.shape[1]), min(ey + reach, grid.shape[0])
-        table = np.zeros((ay + 1, ax + 1), dtype=np.int32)
-        np.cumsum(np.cumsum(grid[:ay, :ax], axis=0, dtype=np.int32), axis=1, out=table[1:, 1:])
+        if ay >= counts.shape[0] or ax >= counts.shape[1]:  # (a table of the cells that held)
+            counts = np.zeros((ay + 1, ax + 1), dtype=np.int32)
+            np.cumsum(np.cumsum(grid[:ay, :ax], axis=0, dtype=np.int32), axis=1, out=counts[1:, 1:])
+        table = counts[: ay + 1, : ax + 1]  # (a prefix's table is the table's corner)
         shapes = [(w0, h0)] if w0 == h0 else [(w0, h0), (h0, w0)]
-        free = [table[h:, w:] - table[:-h, w:] - table[h:, :-w] + table[:-h, :-w] == 0 for w, h in shapes]
+        # (a box's window holds no cell taken: its four corners' counts cancel)
+        free = [table[h:, w:] + table[:-h, :-w] == table[:-h, w:] + table[h:, :-w] for w, h in shapes]
         grown = False
         while i < run_end and not grown:
             q, x, y = _best_box(free, shapes, ex, ey, aspect, rule)
             w, h = shapes[q]
             grid[y : y + h, x : x + w] = True
+            _count_box(counts, x, y, w, h)
             for (w2, h2), f in zip(shapes, free):  # the positions that now overlap it
                 f[max(y - h2 + 1, 0) : y + h, max(x - w2 + 1, 0) : x + w] = False
             grown = x + w > ex or y + h > ey
@@ -551,6 +557,16 @@ def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: 
             where[i], turn[i] = (x, y), q
             i += 1
     return where, turn, ex, ey
+
+
+def _count_box(counts: np.ndarray, x: int, y: int, w: int, h: int) -> None:
+    """The summed-area table ``counts`` (``counts[Y, X]``: cells taken in ``grid[:Y, :X]``)
+    with a free box of ``w`` x ``h`` cells at (``x``, ``y``) taken: ``counts[Y, X]`` gains
+    ``min(Y - y, h) * min(X - x, w)`` where both are positive."""
+    cols = np.minimum(np.arange(1, counts.shape[1] - x), w).astype(np.int32)
+    ramp = np.arange(1, min(h, counts.shape[0] - y - 1) + 1, dtype=np.int32)
+    counts[y + 1 : y + 1 + len(ramp), x + 1 :] += ramp[:, None] * cols[None, :]
+    counts[y + 1 + h :, x + 1 :] += h * cols[None, :]
 
 
 def _best_box(free: list[np.ndarray], shapes, ex: int, ey: int, aspect: float, rule: str):
@@ -567,11 +583,11 @@ def _best_box(free: list[np.ndarray], shapes, ex: int, ey: int, aspect: float, r
     best = None
     for q, ((w, h), f) in enumerate(zip(shapes, free)):
         # both rules grow with x along a row: each row's best is its first free cell
-        rows = f.any(axis=1)
-        y = np.flatnonzero(rows)
+        first = f.argmax(axis=1)  # (0 in a row with none: told apart by the cell itself)
+        y = np.flatnonzero(f[np.arange(len(f)), first]) if f.size else np.zeros(0, dtype=np.int64)
         if not len(y):
             continue
-        x = f.argmax(axis=1)[y]
+        x = first[y]
         inner = (x + w <= ex) & (y + h <= ey)
         if rule == "square" and inner.any():
             x, y = x[inner], y[inner]
