@@ -141,8 +141,7 @@ def _pairs_in_cells(
             held = asked[np.minimum(np.searchsorted(asked, key), len(asked) - 1)] == key
             key, item = key[held], item[held]
         own = level[item] == top
-        pairing = _cell_pairs if across is None else _cell_pairs_across
-        i, j = pairing(key, item, own, across)
+        i, j = _cell_pairs(key, item, own) if across is None else _cell_pairs_across(key, item, own, across)
         if query is not None:
             asked = query[i] | query[j]
             i, j = i[asked], j[asked]
@@ -178,7 +177,7 @@ def _ranges(start: np.ndarray, count: np.ndarray) -> np.ndarray:
     return np.repeat(start - np.cumsum(count) + count, count) + np.arange(int(count.sum()))
 
 
-def _cell_pairs(key, item, own, across):
+def _cell_pairs(key, item, own):
     """Per cell (equal ``key``), every own item with every later item of the cell: sorted
     own first, every pair of the cell is made once and a pair of two items held from finer
     grids is left to those."""

@@ -248,8 +248,8 @@ class Contact(Boundary):
         # test of its end for crossings refuses it, see :meth:`crossing`)
         move = np.zeros(len(x)) if motion is None else np.minimum(motion, (_FOLLOWED + _SKIN) * self._vertex_gap())
         # vertex points and edge boxes grown by the edge's gap and the motion: pairs of a
-        # vertex with an edge whose box holds it (one grid pass, boxes of every size, no pair
-        # of two vertices or two edges)
+        # vertex with an edge whose box holds it (one pass of box_pairs, boxes of every size,
+        # no pair of two vertices or two edges)
         vertices = edges[:, 0]  # (each boundary vertex starts one edge)
         a, b = x[edges[:, 0]], x[edges[:, 1]]
         pad = (self.gap[on] + np.maximum(move[edges[:, 0]], move[edges[:, 1]]))[:, None]
