@@ -3,9 +3,11 @@
 import numpy as np
 
 from isoparam_addon.solver import metrics, parametrize
+from isoparam_addon.solver.charting.resolve import sub_problem
 from isoparam_addon.solver.geometry import triangles
 from isoparam_addon.solver.mesh.halfedges import HalfEdges, fans, unique_edges
 from isoparam_addon.solver.mesh.topology import build_topology
+from isoparam_addon.solver.options import Problem
 from isoparam_eval import meshes as ex
 
 from .conftest import edge_length_error
@@ -157,6 +159,21 @@ def test_bow_ties_can_be_split_instead_of_rejected():
     assert np.isfinite(r.corner_uv).all()
     d = metrics.uv_edge_lengths(V, F, r.corner_uv)
     np.testing.assert_allclose(d[1], d[0], rtol=1e-12)
+
+
+def test_a_part_solved_alone_keeps_apart_the_faces_of_an_edge_that_more_faces_share():
+    # three fins on the edge (0, 1): split, every fin is an island of its own; two of them
+    # taken alone share the edge with nothing else, and must still not be joined across it
+    V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]], dtype=float)
+    F = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
+    assert build_topology(V, F, split_nonmanifold=True)[2].n_islands == 3
+    for faces in ([0, 1], [1, 2], [0, 2]):
+        part, used = sub_problem(Problem(V, F), np.array(faces))
+        topo = build_topology(part.vertices, part.faces, part.seams, split_nonmanifold=True)[2]
+        assert topo.n_islands == 2 and np.array_equal(used, np.unique(F[faces]))
+    # a face given twice is an island of its own, and splits none of the edges it repeats
+    part, _ = sub_problem(Problem(V, np.vstack([F[:2], F[:1]])), np.array([0, 1]))
+    assert part.seams is None or not len(part.seams)
 
 
 def test_automatic_cuts_avoid_the_diagonals_of_triangulated_quads():

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..geometry import safe_divide, signed_double_areas
 from ..layout.placement import pack_islands
-from ..mesh.halfedges import unique_sorted, unit_of
+from ..mesh.halfedges import pair_keys, unique_sorted, unit_of
 from ..mesh.islands import Islands, first_rows
 from ..mesh.topology import build_topology
 from ..options import Options, Problem
@@ -67,7 +67,12 @@ def solve_islands(problem: Problem, faces: np.ndarray, options: Options) -> Part
 def sub_problem(problem: Problem, faces: np.ndarray) -> tuple[Problem, np.ndarray]:
     """The problem of ``faces`` (k,, indices into the problem's faces) alone, over the
     vertices they use, and those vertices (j,) (its vertex i is the problem's ``used[i]``):
-    seams and inner edges between two of them kept, per-face data taken."""
+    seams and inner edges between two of them kept, per-face data taken.
+
+    An edge that more than two faces of the problem share is a seam of the part too: the
+    whole problem's topology splits it (:func:`.halfedges.check`), and a part that holds
+    only two of its faces would otherwise join them across it (two islands made one, or an
+    island's layout glued to itself where it was apart)."""
     V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
     used = unique_sorted(F[faces])
     index = np.full(len(V), -1, dtype=np.int64)
@@ -79,10 +84,25 @@ def sub_problem(problem: Problem, faces: np.ndarray) -> tuple[Problem, np.ndarra
         p = index[pairs(vertex_pairs)]
         return p[(p >= 0).all(axis=1)]
 
+    seams = inside(problem.seams)
+    split = inside(_shared_by_more(F, len(V)))
+    if len(split):
+        seams = split if seams is None else np.vstack([seams, split])
     pins = None if problem.pins is None else (np.asarray(problem.pins[0])[faces], np.asarray(problem.pins[1])[faces])
     start = None if problem.start is None else problem.start[faces]
-    part = Problem(V[used], index[F[faces]], inside(problem.seams), inside(problem.inner_edges), pins, start)
+    part = Problem(V[used], index[F[faces]], seams, inside(problem.inner_edges), pins, start)
     return part, used
+
+
+def _shared_by_more(F: np.ndarray, n: int) -> np.ndarray:
+    """The edges (k, 2 vertex pairs) that more than two faces of ``F`` (m, 3) share, a
+    face repeated counted once (a repeat is an island of its own: it splits no edge)."""
+    s = np.sort(F, axis=1)
+    s = s[np.lexsort((s[:, 2], s[:, 1], s[:, 0]))]
+    s = s[np.r_[True, (s[1:] != s[:-1]).any(axis=1)]]
+    ends = np.stack([s[:, [0, 0, 1]].ravel(), s[:, [1, 2, 2]].ravel()], axis=1)
+    _, first, count = np.unique(pair_keys(ends[:, 0], ends[:, 1], n, ordered=True), return_index=True, return_counts=True)
+    return ends[first[count > 2]]
 
 
 def cut_further(
