@@ -101,8 +101,10 @@ def _shared_by_more(F: np.ndarray, n: int) -> np.ndarray:
     s = s[np.lexsort((s[:, 2], s[:, 1], s[:, 0]))]
     s = s[np.r_[True, (s[1:] != s[:-1]).any(axis=1)]]
     ends = np.stack([s[:, [0, 0, 1]].ravel(), s[:, [1, 2, 2]].ravel()], axis=1)
-    _, first, count = np.unique(pair_keys(ends[:, 0], ends[:, 1], n, ordered=True), return_index=True, return_counts=True)
-    return ends[first[count > 2]]
+    key = np.sort(pair_keys(ends[:, 0], ends[:, 1], n, ordered=True))
+    # (an edge's copies are a run of equal keys: more than two where the next but one is equal)
+    shared = unique_sorted(key[2:][key[2:] == key[:-2]])
+    return np.stack([shared // n, shared % n], axis=1)
 
 
 def cut_further(
