@@ -18,7 +18,7 @@ import numpy as np
 
 from ..geometry import safe_divide, signed_double_areas
 from ..layout.placement import pack_islands
-from ..mesh.halfedges import pair_keys, unique_sorted, unit_of
+from ..mesh.halfedges import repeated_faces, split_edges, unique_sorted, unit_of
 from ..mesh.islands import Islands, first_rows
 from ..mesh.topology import build_topology
 from ..options import Options, Problem
@@ -70,7 +70,7 @@ def sub_problem(problem: Problem, faces: np.ndarray) -> tuple[Problem, np.ndarra
     seams and inner edges between two of them kept, per-face data taken.
 
     An edge that more than two faces of the problem share is a seam of the part too: the
-    whole problem's topology splits it (:func:`.halfedges.check`), and a part that holds
+    whole problem's topology splits it (:func:`.halfedges.split_edges`), and a part that holds
     only two of its faces would otherwise join them across it (two islands made one, or an
     island's layout glued to itself where it was apart)."""
     V, F = np.asarray(problem.vertices), np.asarray(problem.faces)
@@ -85,26 +85,14 @@ def sub_problem(problem: Problem, faces: np.ndarray) -> tuple[Problem, np.ndarra
         return p[(p >= 0).all(axis=1)]
 
     seams = inside(problem.seams)
-    split = inside(_shared_by_more(F, len(V)))
+    edges = split_edges(F, len(V), repeated_faces(F, len(V)))
+    split = inside(edges.edge_vertices[edges.overfull])
     if len(split):
         seams = split if seams is None else np.vstack([seams, split])
     pins = None if problem.pins is None else (np.asarray(problem.pins[0])[faces], np.asarray(problem.pins[1])[faces])
     start = None if problem.start is None else problem.start[faces]
     part = Problem(V[used], index[F[faces]], seams, inside(problem.inner_edges), pins, start)
     return part, used
-
-
-def _shared_by_more(F: np.ndarray, n: int) -> np.ndarray:
-    """The edges (k, 2 vertex pairs) that more than two faces of ``F`` (m, 3) share, a
-    face repeated counted once (a repeat is an island of its own: it splits no edge)."""
-    s = np.sort(F, axis=1)
-    s = s[np.lexsort((s[:, 2], s[:, 1], s[:, 0]))]
-    s = s[np.r_[True, (s[1:] != s[:-1]).any(axis=1)]]
-    ends = np.stack([s[:, [0, 0, 1]].ravel(), s[:, [1, 2, 2]].ravel()], axis=1)
-    key = np.sort(pair_keys(ends[:, 0], ends[:, 1], n, ordered=True))
-    # (an edge's copies are a run of equal keys: more than two where the next but one is equal)
-    shared = unique_sorted(key[2:][key[2:] == key[:-2]])
-    return np.stack([shared // n, shared % n], axis=1)
 
 
 def cut_further(

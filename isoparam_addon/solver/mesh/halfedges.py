@@ -149,22 +149,10 @@ def check(vertices, faces, split_nonmanifold: bool = True):
     """
     V, F = _arrays(vertices, faces)
     n = len(V)
-    s = _sort_rows(F)
-    fkey = (s[:, 0] * n + s[:, 1]) * n + s[:, 2] if n < 2_000_000 else None
-    if fkey is not None:
-        order = np.argsort(fkey, kind="stable")
-        dup = order[1:][fkey[order[1:]] == fkey[order[:-1]]]
-    else:
-        _, first = np.unique(s, axis=0, return_index=True)
-        keep = np.ones(len(F), dtype=bool)
-        keep[first] = False
-        dup = np.flatnonzero(keep)
-    dup = np.sort(dup)
+    dup = repeated_faces(F, n)
     if dup.size and not split_nonmanifold:
         raise offenders(ErrorKind.DUPLICATE_FACE, "repeat the vertices of an earlier face", "face", dup)
-    excluded = np.zeros(len(F), dtype=bool)
-    excluded[dup] = True
-    edges = HalfEdges(F, n, excluded=excluded if dup.size else None)
+    edges = split_edges(F, n, dup)
     if edges.overfull.size and not split_nonmanifold:
         pairs = edges.edge_vertices[edges.overfull]
         raise offenders(
@@ -191,6 +179,31 @@ def check(vertices, faces, split_nonmanifold: bool = True):
     if bad.size:
         fan = None  # the fans of a bow-tie vertex are split into separate vertices later
     return V, F, edges, fan, Defects(dup, edges.edge_vertices[edges.overfull], bad)
+
+
+def repeated_faces(F: np.ndarray, n: int) -> np.ndarray:
+    """The faces (k,) int64, ascending, of ``F`` (m, 3) over ``n`` vertices that repeat the
+    vertices of an earlier face (in any order)."""
+    s = _sort_rows(F)
+    fkey = (s[:, 0] * n + s[:, 1]) * n + s[:, 2] if n < 2_000_000 else None
+    if fkey is not None:
+        order = np.argsort(fkey, kind="stable")
+        dup = order[1:][fkey[order[1:]] == fkey[order[:-1]]]
+    else:
+        _, first = np.unique(s, axis=0, return_index=True)
+        keep = np.ones(len(F), dtype=bool)
+        keep[first] = False
+        dup = np.flatnonzero(keep)
+    return np.sort(dup)
+
+
+def split_edges(F: np.ndarray, n: int, repeated: np.ndarray) -> HalfEdges:
+    """The half-edges of ``F`` (m, 3) over ``n`` vertices without the ``repeated`` faces (k,)
+    (:func:`repeated_faces`): their ``overfull`` edges, shared by more than two faces, are
+    those the topology splits."""
+    excluded = np.zeros(len(F), dtype=bool)
+    excluded[repeated] = True
+    return HalfEdges(F, n, excluded=excluded if repeated.size else None)
 
 
 def _arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
