@@ -710,3 +710,73 @@ def test_the_energy_the_metrics_report_is_the_one_the_refinement_lowers():
     reported = metrics.per_island(X, topo.faces, r.uv, topo.vertex_island[topo.faces[:, 0]])
     assert reported.symmetric_dirichlet == pytest.approx(best, rel=1e-9)
     assert (r.island_energy / r.island_area >= best * (1 - 1e-12)).all()  # as laid out: no lower
+
+
+def test_the_projected_hessian_is_the_energys_where_that_is_convex_and_never_negative():
+    from isoparam_addon.solver.refinement.per_face import dirichlet_hessians
+
+    rng = np.random.default_rng(3)
+    J = rng.normal(size=(4, 200)) * 0.6
+    J[0] += 1.0
+    J[3] += 1.0
+    J = J[:, det2(*J) > 0.05]  # (fold-free Jacobians)
+
+    def energy(Jv):
+        F = (Jv * Jv).sum(axis=0)
+        return F + F / det2(*Jv) ** 2
+
+    h = 1e-4
+    numeric = np.zeros((J.shape[1], 4, 4))
+    for i in range(4):
+        for j in range(4):
+            ei, ej = np.eye(4)[i][:, None] * h, np.eye(4)[j][:, None] * h
+            numeric[:, i, j] = (
+                energy(J + ei + ej) - energy(J + ei - ej) - energy(J - ei + ej) + energy(J - ei - ej)
+            ) / (4 * h * h)
+    P = dirichlet_hessians(tuple(J), np.ones(J.shape[1]))
+    assert np.linalg.eigvalsh(P).min() > -1e-9 * np.abs(P).max()
+    convex = np.linalg.eigvalsh(numeric).min(axis=1) > 0
+    assert convex.sum() > 20 and (~convex).sum() > 5  # both kinds met
+    scale = np.abs(numeric).max(axis=(1, 2))[:, None, None]
+    np.testing.assert_allclose(P[convex] / scale[convex], numeric[convex] / scale[convex], atol=1e-5)
+
+
+def test_the_barriers_normal_curvature_is_its_second_derivative_along_the_normal():
+    from isoparam_addon.solver.refinement.contact import Contact, Near
+
+    # a square's boundary and one of its vertices moved near the opposite edge
+    X = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.5, 0.5, 0.0]])
+    F = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
+    contact = Contact.of(X, F, np.zeros(5, dtype=np.int64), 1)
+    x = X[:, :2].copy()
+    edge = int(np.flatnonzero((contact.edges == [0, 1]).all(axis=1))[0])
+    near = Near(np.array([3]), np.array([edge]), np.array([0.5]))
+    x[3] = [0.3, 0.2]  # 0.2 from edge 0-1, within its gap
+    H = contact.normal_curvature(x, near).toarray()
+    move = np.zeros_like(x)
+    move[3] = [0.0, 1.0]  # along the pair's normal
+
+    def barrier(t):
+        return contact.energy(x + t * move, near, 1)[0][0]
+
+    h = 1e-4
+    second = (barrier(h) - 2 * barrier(0.0) + barrier(-h)) / (h * h)
+    assert second > 0
+    assert abs(move.ravel() @ H @ move.ravel() - second) < 1e-4 * second
+
+
+def test_a_descent_that_goes_on_takes_the_second_order_proxy_and_ends_no_higher(monkeypatch):
+    from isoparam_addon.solver.refinement import descent
+
+    V, F = ex.peaks(31)  # a descent of 17 iterations
+    first = parametrize(V, F, refine=300, pack=False)
+    assert first.stats.refine_iterations > 10
+    monkeypatch.setattr(descent, "_SECOND_ORDER_AFTER", 5)
+    built = []
+    make = descent.second_order_proxy
+    monkeypatch.setattr(descent, "second_order_proxy", lambda *a, **k: built.append(1) or make(*a, **k))
+    second = parametrize(V, F, refine=300, pack=False)
+    assert built  # it switched
+    assert second.stats.refine_iterations < first.stats.refine_iterations
+    assert second.stats.refine_energy[-1] <= first.stats.refine_energy[-1] * (1 + 1e-4)
+    assert second.distortion().flipped == 0 and not (second.islands.crossings > 0).any()

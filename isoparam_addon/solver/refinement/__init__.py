@@ -7,6 +7,9 @@ In pipeline order:
 ``proxy.py``
     The quadratic proxy (cotangent Laplacian, SLIM-weighted where far from isometric),
     factored beside Steps 1-3.
+``second_order.py``
+    The proxy of a descent that goes on long: the energy's Hessian made positive
+    semi-definite, with the contact barrier's curvature, over u and v together.
 ``descent.py``
     :func:`~.descent.refine`, the stage itself: each island's start, then local/global
     steps and L-BFGS until converged; :func:`~.descent.unfolded` without refinement.
@@ -16,7 +19,7 @@ In pipeline order:
     Those alternatives: a least-squares conformal map and a Tutte embedding.
 ``per_face.py``
     The descent's per-face kernels: frames, Jacobians, the energy and its derivative,
-    the collapse step, SLIM's weights.
+    the collapse step, SLIM's weights, the energy's projected Hessians.
 ``contact.py``
     The barrier and step cap that keep an island's boundary from crossing itself.
 ``watch.py``

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from typing import Self
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..geometry import safe_divide, sum_products
 from ..mesh.halfedges import HalfEdges, unique_sorted
@@ -70,6 +71,14 @@ def _log_barrier(d: np.ndarray, g: np.ndarray):
         value = -w * (d - g) ** 2 * log
         slope = -w * (2.0 * (d - g) * log + (d - g) ** 2 / d)  # d value / d d
     return value, slope
+
+
+def _log_barrier_curvature(d: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """The barrier's second derivative ``d^2 b / d d^2`` (p,) at distances ``d`` below the
+    gaps ``g`` (positive: the barrier is convex in the distance)."""
+    w = _STIFFNESS * np.sqrt(3.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return -w * (2.0 * np.log(d / g) + 4.0 * (d - g) / d - (d - g) ** 2 / (d * d))
 
 
 def _first_meeting(e0: np.ndarray, e1: np.ndarray, r0: np.ndarray, r1: np.ndarray) -> np.ndarray:
@@ -320,6 +329,28 @@ class Contact(Boundary):
                 - np.bincount(b, s * force[:, c], minlength=n)
             )
         return np.bincount(island, value, minlength=n_islands), grad
+
+    def normal_curvature(self, x: np.ndarray, near: Near):
+        """The barrier's curvature along each close pair's normal, ``b''(d) grad d grad d^T``
+        over the 2n coordinates (u, v of each vertex, interleaved), as a sparse (2n, 2n)
+        matrix: the part of the barrier's Hessian that is positive semi-definite (the
+        distance's own curvature, which lets a vertex slide along an edge, is left out).
+        None when no pair is within its gap."""
+        v, e = near.vertex, near.edge
+        d, s, diff = _distances(x, v, self.edges[e, 0], self.edges[e, 1])
+        close = (d < near.gap) & (d > 0)
+        if not close.any():
+            return None
+        v, e, s, d, diff = v[close], e[close], s[close], d[close], diff[close]
+        k = _log_barrier_curvature(d, near.gap[close])
+        u = diff / d[:, None]
+        a, b = self.edges[e, 0], self.edges[e, 1]
+        at = np.stack([2 * v, 2 * v + 1, 2 * a, 2 * a + 1, 2 * b, 2 * b + 1], axis=1)
+        grad = np.concatenate([u, -(1.0 - s)[:, None] * u, -s[:, None] * u], axis=1)  # of d, over at
+        values = k[:, None, None] * grad[:, :, None] * grad[:, None, :]
+        n2 = 2 * len(x)
+        rows, cols = np.repeat(at, 6, axis=1).ravel(), np.tile(at, (1, 6)).ravel()
+        return sp.csr_matrix((values.ravel(), (rows, cols)), shape=(n2, n2))
 
     def first_contact(self, x: np.ndarray, p: np.ndarray, near: Near, n_islands: int) -> np.ndarray:
         """Per island (n_islands,), the first step t > 0 along ``p`` (n, 2) from ``x`` at

@@ -27,7 +27,10 @@ crawls; such an island takes SLIM steps (Rabinovich et al. 2017), and its proxy 
 Laplacian re-weighted per face from its singular values as in SLIM, factored again when
 its energy has fallen by 30% since, or every 20 iterations, until it is near isometric.
 An iteration costs one pair of triangular solves, a dozen sparse products and the line
-search.
+search. A descent still going after ``_SECOND_ORDER_AFTER`` iterations is one whose steps
+are capped (crushed faces, contact) and whose end would follow rounding: from there its
+proxy is the energy's projected Hessian with the barrier's curvature (:mod:`.second_order`),
+built again every ``_SECOND_ORDER_EVERY`` iterations.
 
 **Stopping.** An island stops when its energy fell by less than ``tol`` (relative) over
 the last 5 iterations, or by less than a hundredth of that over the last one, or when no
@@ -81,6 +84,7 @@ from ..progress import tick
 from .contact import Contact
 from .per_face import FaceFrames, layout_energy, max_step, slim_weights, symmetric_dirichlet
 from .proxy import Proxy, quadratic_proxy
+from .second_order import SecondOrderProxy, second_order_proxy
 from .start import start_layout
 from .watch import ContactWatch
 
@@ -96,6 +100,9 @@ _REFRESH_EVERY = 20  # ... or after this many iterations
 _SLIM_STEPS = 30  # at most this many SLIM steps from a start far from isometric
 _HALFWAY = 100  # progress: the iteration count reported as half of the refinement (it stops when converged)
 _SLIM_DROP = 0.3  # ... each lowering the energy by this much (relative)
+_SECOND_ORDER_AFTER = 100  # a descent still going after this many iterations takes the second-order proxy ...
+_SECOND_ORDER_EVERY = 10  # ... built again every this many iterations ...
+_SECOND_ORDER_ROWS = 60_000  # ... while the rows still descending are at most this many (its factor is over 2n)
 
 
 @dataclass
@@ -200,7 +207,9 @@ class _Memory:
     def empty(cls, islands: Islands) -> _Memory:
         return cls(islands, [], np.ones(islands.n))
 
-    def direction(self, g: np.ndarray, active: np.ndarray, proxy: Proxy) -> tuple[np.ndarray, np.ndarray]:
+    def direction(
+        self, g: np.ndarray, active: np.ndarray, proxy: Proxy | SecondOrderProxy
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The L-BFGS direction (n, 2) from the gradient ``g`` (n, 2) for the ``active``
         islands, and its slope per island."""
         islands = self.islands
@@ -222,7 +231,9 @@ class _Memory:
             slope = islands.dot(g, p)
         return np.where(islands.spread(active), p, 0.0), slope
 
-    def learn(self, s: np.ndarray, y: np.ndarray, step: _Step, proxy: Proxy, per_face: Labelled) -> None:
+    def learn(
+        self, s: np.ndarray, y: np.ndarray, step: _Step, proxy: Proxy | SecondOrderProxy, per_face: Labelled
+    ) -> None:
         """Remember the pair of the ``step`` taken, ``s`` (n, 2), and the change of the
         gradient along it, ``y`` (n, 2), for the islands where it curves up, and scale
         their proxy to the curvature seen along it, ``s^T H s / s^T y``."""
@@ -313,7 +324,7 @@ class _Descent:
     def __init__(self, X, faces, x, islands: Islands, pinned, proxy: Proxy, tol, out: Refinement, contact=None):
         self.X, self.faces, self.islands, self.pinned, self.tol, self.out = X, faces, islands, pinned, tol, out
         self.watch = ContactWatch(contact, islands.n)
-        self.proxy = proxy
+        self.proxy: Proxy | SecondOrderProxy = proxy
         self.frames = proxy.frames
         self.area = proxy.frames.area
         self.per_face = Islands.labelled(islands.label[faces[:, 0]], islands.n)
@@ -432,7 +443,8 @@ class _Descent:
             return
         mine = self.per_face.expand(which) * np.ones(len(self.faces), dtype=bool)
         weights = np.where(mine, slim_weights(self.J), self.proxy.weights)
-        self.proxy = self.proxy.reweighted(self.islands, weights, which)
+        quadratic = self.proxy.quadratic if isinstance(self.proxy, SecondOrderProxy) else self.proxy
+        self.proxy = quadratic.reweighted(self.islands, weights, which)
         self.reweighting.set(which, self.E, iteration)
         self.memory.forget(which)  # their curvature pairs describe the old proxy's error
         self.out.proxies += 1
@@ -624,6 +636,7 @@ class _Carry:
     weights: np.ndarray
     watched: np.ndarray
     start: np.ndarray
+    iterations: int = 0  # the descent's iterations before the hand-over
 
 
 def refine(
@@ -683,7 +696,7 @@ def refine(
     t0 = time.perf_counter()
     pinned = np.zeros(len(X), dtype=bool) if pinned is None else pinned
     d = _set_up(X, faces, uv, islands, he_twin, tol, arap, pinned, order, proxy, carry, no_overlaps)
-    d = _descend(d, iterations)
+    d = _descend(d, iterations, 0 if carry is None else carry.iterations)
     return _finish(d, t0)
 
 
@@ -749,16 +762,18 @@ def _leave_endless(d: _Descent) -> None:
     d.trace = [np.where(endless, 0.0, e) for e in d.trace]
 
 
-def _descend(d: _Descent, iterations: int) -> _Descent:
-    """At most ``iterations`` L-BFGS steps of the descent ``d`` from where it is, until
-    every island stopped; once the islands still descending hold at most ``_HANDOVER`` of
-    the rows, they go on alone (:func:`_go_on_alone`)."""
+def _descend(d: _Descent, iterations: int, done: int = 0) -> _Descent:
+    """At most ``iterations`` L-BFGS steps of the descent ``d`` from where it is (``done``
+    taken before it was handed over), until every island stopped; once the islands still
+    descending hold at most ``_HANDOVER`` of the rows, they go on alone
+    (:func:`_go_on_alone`)."""
     g = d.gradient(d.G)
     for it in range(1, (iterations if d.active.any() else 0) + 1):  # quasi-Newton steps, each one factored solve
         tick(it / (it + _HALFWAY))
         if d.watch_pending():
             g = d.gradient(d.G)
-        d.refresh(it)
+        if not _second_order(d, done + it):
+            d.refresh(it)
         p, slope = d.memory.direction(g, d.active, d.proxy)
         step = _line_search(d, p, slope)
         if not (step.t > 0).any() and not d.watch.pending.any():
@@ -773,6 +788,22 @@ def _descend(d: _Descent, iterations: int) -> _Descent:
             _go_on_alone(d, iterations - it, it)
             break
     return d
+
+
+def _second_order(d: _Descent, iteration: int) -> bool:
+    """Whether the descent ``d`` takes the second-order proxy (:mod:`.second_order`) at its
+    ``iteration``: from ``_SECOND_ORDER_AFTER`` on, while the rows still descending are at
+    most ``_SECOND_ORDER_ROWS``; built again every ``_SECOND_ORDER_EVERY`` iterations, the
+    L-BFGS pairs (which describe the old proxy's error) forgotten then."""
+    if iteration < _SECOND_ORDER_AFTER or d.islands.size[d.active].sum() > _SECOND_ORDER_ROWS:
+        return False
+    if isinstance(d.proxy, SecondOrderProxy) and (iteration - _SECOND_ORDER_AFTER) % _SECOND_ORDER_EVERY:
+        return True
+    contact = d.watch.normal_curvature(d.x, d.active & d.watch.watched)
+    d.proxy = second_order_proxy(d.proxy, d.J, d.live_face, d.active[d.islands.label], contact)
+    d.memory.forget(d.active)
+    d.out.proxies += 1
+    return True
 
 
 def _finish(d: _Descent, t0: float) -> Refinement:
@@ -813,6 +844,7 @@ def _go_on_alone(d: _Descent, iterations: int, done: int) -> None:
         weights=d.proxy.weights[f],
         watched=(d.watch.watched | d.watch.pending)[active],
         start=d.start[rows],
+        iterations=done,
     )
     order = nested_dissection(X_sub, unique_edges(F_sub))
     result = refine(

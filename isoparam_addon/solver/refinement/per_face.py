@@ -12,7 +12,7 @@ import scipy.sparse as sp
 from ..geometry import TINY, conformal_parts, det2, dirichlet_parts, frames_of, gradient_coefficients, triangles
 from ..mesh.islands import Labelled
 
-__all__ = ["FaceFrames", "layout_energy", "max_step", "slim_weights", "symmetric_dirichlet"]
+__all__ = ["FaceFrames", "dirichlet_hessians", "layout_energy", "max_step", "slim_weights", "symmetric_dirichlet"]
 
 
 class FaceFrames:
@@ -28,6 +28,8 @@ class FaceFrames:
     area : (m,) float64
         3D area (degenerate faces get a tiny positive stand-in, see ``degenerate``).
     Dx, Dy : (m, n) sparse
+    dx, dy : (m, 3) float64
+        The same coefficients per corner of each face.
     degenerate : (m,) bool
     faces : (m, 3) int64
     """
@@ -41,6 +43,7 @@ class FaceFrames:
         self.degenerate = frames.flat
         self.area = frames.area
         dx, dy = gradient_coefficients(frames)
+        self.dx, self.dy = dx, dy  # (m, 3): the coefficients per corner
         rows = np.repeat(np.arange(m), 3)
         idx = faces.ravel()
         self.Dx = sp.csr_matrix((dx.ravel(), (rows, idx)), shape=(m, n))
@@ -67,6 +70,33 @@ def symmetric_dirichlet(a, b, c, d, area):
     k1 = 2.0 * area * (1.0 + 1.0 / (det * det))
     k2 = -2.0 * area * fro / (det * det * det)
     return e, (k1 * a + k2 * d, k1 * b - k2 * c, k1 * c - k2 * b, k1 * d + k2 * a)
+
+
+def dirichlet_hessians(J, area) -> np.ndarray:
+    """Per face (m, 4, 4), the Hessian of its symmetric Dirichlet energy ``A (|J|^2 +
+    |J|^2 / det^2)`` in the Jacobian's entries (a, b, c, d), made positive semi-definite
+    (negative eigenvalues set to 0): the second-order proxy's blocks (Teran et al. 2005).
+
+    With F = |J|^2 and D = det J: the Hessian of F is 2 I, of D the constant ``HD``, and
+    that of F / D^2 is ``2 I / D^2 - 2 (gF gD^T + gD gF^T) / D^3 + 6 F gD gD^T / D^4 -
+    2 F HD / D^3`` (gF = 2 J, gD = (d, -c, -b, a))."""
+    a, b, c, d = J
+    Jv = np.stack([a, b, c, d], axis=1)
+    F = (Jv * Jv).sum(axis=1)
+    D = det2(a, b, c, d)
+    gF, gD = 2.0 * Jv, np.stack([d, -c, -b, a], axis=1)
+    HD = np.zeros((4, 4))
+    HD[0, 3] = HD[3, 0] = 1.0
+    HD[1, 2] = HD[2, 1] = -1.0
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        inv = 1.0 / D
+        H = (2.0 * (1.0 + inv * inv))[:, None, None] * np.eye(4)
+        H -= (2.0 * inv**3)[:, None, None] * (gF[:, :, None] * gD[:, None, :] + gD[:, :, None] * gF[:, None, :])
+        H += (6.0 * F * inv**4)[:, None, None] * (gD[:, :, None] * gD[:, None, :])
+        H -= (2.0 * F * inv**3)[:, None, None] * HD
+    H = np.where(np.isfinite(H).all(axis=(1, 2))[:, None, None], H, 0.0)
+    w, V = np.linalg.eigh(H)
+    return np.einsum("fij,fj,fkj->fik", V, np.maximum(w, 0.0), V) * area[:, None, None]
 
 
 def max_step(J, dJ, limit: float = np.inf):

@@ -178,6 +178,15 @@ class ContactWatch:
         self._list = None
         return newly
 
+    def normal_curvature(self, x: np.ndarray, which: np.ndarray):
+        """The barrier's curvature along the normals of the pairs of the islands ``which``
+        (n_islands,) bool whose contact is followed (:meth:`.Contact.normal_curvature`), a
+        sparse (2n, 2n) matrix, or None."""
+        if self.contact is None:
+            return None
+        near = self.near(x, None, None, which)
+        return self.contact.normal_curvature(x, near) if len(near.vertex) else None
+
     def barrier(self, x: np.ndarray, near: Near) -> tuple[np.ndarray, np.ndarray]:
         """Per island the contact barrier of the pairs ``near`` in ``x`` (0 without
         contact), and its gradient (n, 2)."""

@@ -1,0 +1,97 @@
+"""The descent's second-order proxy, for descents that go on long.
+
+L-BFGS starts each step from the quadratic proxy (:mod:`.proxy`), a Laplacian that knows
+neither the energy's curvature where faces are crushed nor the contact barrier's. Where
+a descent goes on for long, that is why: its steps are capped by a face about to collapse
+or by the boundary about to touch itself, a thousandth of their length at a time, and
+where it stops then follows rounding (numpy 1.26 and 2.4 ended the same refinement of a
+32k-vertex creature at energies 0.047 apart). There the proxy becomes the energy's own
+Hessian, made positive semi-definite per face (projected Newton: Teran et al. 2005; the
+per-face blocks, :func:`.per_face.dirichlet_hessians`), with the barrier's curvature along
+each close pair's normal (:meth:`.Contact.normal_curvature`): the direction then slides
+along contact rather than into it. It couples u and v, so it is factored over the 2n
+coordinates of the rows still descending, interleaved in the proxy's elimination order,
+and built again every few iterations (see :mod:`.descent`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+from ..mesh.islands import Islands
+from .per_face import FaceFrames, dirichlet_hessians
+from .proxy import Proxy
+
+__all__ = ["SecondOrderProxy", "second_order_proxy"]
+
+_MIX = 1e-4  # the quadratic proxy's share in it: the energy's Hessian leaves turns (and crushed faces) free
+
+
+@dataclass
+class SecondOrderProxy:
+    """The descent's proxy ``H`` over the 2n coordinates (u, v interleaved), factored on
+    ``coords``, and the ``quadratic`` proxy it stands in for (built again from, and what
+    is handed on, :func:`.descent._go_on_alone`)."""
+
+    H: sp.csr_matrix
+    coords: np.ndarray
+    lu: Any
+    quadratic: Proxy
+
+    @property
+    def frames(self) -> FaceFrames:
+        return self.quadratic.frames
+
+    @property
+    def weights(self) -> np.ndarray:
+        return self.quadratic.weights
+
+    @property
+    def pinned(self) -> np.ndarray:
+        return self.quadratic.pinned
+
+    def solve(self, g: np.ndarray) -> np.ndarray:
+        """``H^{-1} g`` on the rows factored (n, 2), zero on the others."""
+        flat = np.zeros(g.size)
+        flat[self.coords] = self.lu.solve(np.ascontiguousarray(g.reshape(-1)[self.coords]))
+        return flat.reshape(-1, 2)
+
+    def curvature(self, islands: Islands, per_face, s: np.ndarray, t: np.ndarray, dJ) -> np.ndarray:
+        """Per island, ``s^T H s`` of a step ``s`` (n, 2)."""
+        return islands.dot(s, (self.H @ s.reshape(-1)).reshape(-1, 2))
+
+
+def second_order_proxy(
+    proxy: Proxy | SecondOrderProxy, J, live_face: np.ndarray, rows: np.ndarray, contact=None
+) -> SecondOrderProxy:
+    """The second-order proxy at the Jacobians ``J`` of the faces ``live_face`` (m,) bool
+    (the others add nothing), factored on the free vertices of ``rows`` (n,) bool, with
+    the barrier's ``contact`` curvature (a sparse (2n, 2n) matrix, or None) added; ``proxy``
+    the quadratic one (or a second-order one, whose quadratic proxy is taken)."""
+    if isinstance(proxy, SecondOrderProxy):
+        proxy = proxy.quadratic
+    fr = proxy.frames
+    m, n = len(fr.area), len(proxy.pinned)
+    ones, zeros = np.ones(m), np.zeros(m)
+    live = tuple(np.where(live_face, j, one) for j, one in zip(J, (ones, zeros, zeros, ones)))
+    P = dirichlet_hessians(live, np.where(live_face, fr.area, 0.0))
+    # (a, b, c, d) of a face from its corners' (u0, v0, u1, v1, u2, v2)
+    B = np.zeros((m, 4, 6))
+    B[:, 0, 0::2], B[:, 1, 0::2], B[:, 2, 1::2], B[:, 3, 1::2] = fr.dx, fr.dy, fr.dx, fr.dy
+    blocks = np.einsum("fki,fkl,flj->fij", B, P, B)
+    at = np.stack([2 * fr.faces, 2 * fr.faces + 1], axis=2).reshape(m, 6)
+    at_rows, at_cols = np.repeat(at, 6, axis=1).ravel(), np.tile(at, (1, 6)).ravel()
+    H = sp.csr_matrix((blocks.ravel(), (at_rows, at_cols)), shape=(2 * n, 2 * n))
+    H = H + sp.kron(_MIX * proxy.H + 2.0 * sp.diags(proxy.whisper), sp.eye(2), format="csr")
+    if contact is not None:
+        H = H + contact
+    free = proxy.perm[rows[proxy.perm]]
+    coords = np.stack([2 * free, 2 * free + 1], axis=1).ravel()
+    A = H.tocsr()[coords][:, coords].tocsc()
+    lu = splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0)
+    return SecondOrderProxy(H.tocsr(), coords, lu, proxy)
