@@ -31,11 +31,11 @@ from dataclasses import dataclass
 from typing import Self
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..geometry import safe_divide, sum_products
 from ..mesh.halfedges import HalfEdges, unique_sorted
 from ..overlap import box_pairs, crossings
+from .per_face import block_matrix
 
 __all__ = ["Boundary", "Contact", "Near"]
 
@@ -347,10 +347,7 @@ class Contact(Boundary):
         a, b = self.edges[e, 0], self.edges[e, 1]
         at = np.stack([2 * v, 2 * v + 1, 2 * a, 2 * a + 1, 2 * b, 2 * b + 1], axis=1)
         grad = np.concatenate([u, -(1.0 - s)[:, None] * u, -s[:, None] * u], axis=1)  # of d, over at
-        values = k[:, None, None] * grad[:, :, None] * grad[:, None, :]
-        n2 = 2 * len(x)
-        rows, cols = np.repeat(at, 6, axis=1).ravel(), np.tile(at, (1, 6)).ravel()
-        return sp.csr_matrix((values.ravel(), (rows, cols)), shape=(n2, n2))
+        return block_matrix(at, k[:, None, None] * grad[:, :, None] * grad[:, None, :], 2 * len(x))
 
     def first_contact(self, x: np.ndarray, p: np.ndarray, near: Near, n_islands: int) -> np.ndarray:
         """Per island (n_islands,), the first step t > 0 along ``p`` (n, 2) from ``x`` at

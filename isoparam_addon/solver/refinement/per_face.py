@@ -12,7 +12,15 @@ import scipy.sparse as sp
 from ..geometry import TINY, conformal_parts, det2, dirichlet_parts, frames_of, gradient_coefficients, triangles
 from ..mesh.islands import Labelled
 
-__all__ = ["FaceFrames", "dirichlet_hessians", "layout_energy", "max_step", "slim_weights", "symmetric_dirichlet"]
+__all__ = [
+    "FaceFrames",
+    "block_matrix",
+    "dirichlet_hessians",
+    "layout_energy",
+    "max_step",
+    "slim_weights",
+    "symmetric_dirichlet",
+]
 
 
 class FaceFrames:
@@ -97,6 +105,14 @@ def dirichlet_hessians(J, area) -> np.ndarray:
     H = np.where(np.isfinite(H).all(axis=(1, 2))[:, None, None], H, 0.0)
     w, V = np.linalg.eigh(H)
     return np.einsum("fij,fj,fkj->fik", V, np.maximum(w, 0.0), V) * area[:, None, None]
+
+
+def block_matrix(at: np.ndarray, blocks: np.ndarray, size: int) -> sp.csr_matrix:
+    """The sparse (size, size) matrix that sums dense blocks ``blocks`` (p, k, k), block i
+    over the rows and columns ``at[i]`` (p, k): an assembled Hessian."""
+    k = at.shape[1]
+    rows, cols = np.repeat(at, k, axis=1).ravel(), np.tile(at, (1, k)).ravel()
+    return sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(size, size))
 
 
 def max_step(J, dJ, limit: float = np.inf):

@@ -4,10 +4,10 @@ L-BFGS starts each step from the quadratic proxy (:mod:`.proxy`), a Laplacian th
 neither the energy's curvature where faces are crushed nor the contact barrier's. Where
 a descent goes on for long, that is why: its steps are capped by a face about to collapse
 or by the boundary about to touch itself, a thousandth of their length at a time, and
-where it stops then follows rounding (numpy 1.26 and 2.4 ended the same refinement of a
-32k-vertex creature at energies 0.047 apart). There the proxy becomes the energy's own
-Hessian, made positive semi-definite per face (projected Newton: Teran et al. 2005; the
-per-face blocks, :func:`.per_face.dirichlet_hessians`), with the barrier's curvature along
+where it stops then follows rounding (another BLAS or numpy build, 1e-12 of noise).
+There the proxy becomes the energy's own Hessian, made positive semi-definite per face
+(projected Newton: Teran et al. 2005; the per-face blocks,
+:func:`.per_face.dirichlet_hessians`), with the barrier's curvature along
 each close pair's normal (:meth:`.Contact.normal_curvature`): the direction then slides
 along contact rather than into it. It couples u and v, so it is factored over the 2n
 coordinates of the rows still descending, interleaved in the proxy's elimination order,
@@ -24,7 +24,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ..mesh.islands import Islands
-from .per_face import FaceFrames, dirichlet_hessians
+from .per_face import FaceFrames, block_matrix, dirichlet_hessians
 from .proxy import Proxy
 
 __all__ = ["SecondOrderProxy", "second_order_proxy"]
@@ -85,13 +85,12 @@ def second_order_proxy(
     B[:, 0, 0::2], B[:, 1, 0::2], B[:, 2, 1::2], B[:, 3, 1::2] = fr.dx, fr.dy, fr.dx, fr.dy
     blocks = np.einsum("fki,fkl,flj->fij", B, P, B)
     at = np.stack([2 * fr.faces, 2 * fr.faces + 1], axis=2).reshape(m, 6)
-    at_rows, at_cols = np.repeat(at, 6, axis=1).ravel(), np.tile(at, (1, 6)).ravel()
-    H = sp.csr_matrix((blocks.ravel(), (at_rows, at_cols)), shape=(2 * n, 2 * n))
-    H = H + sp.kron(_MIX * proxy.H + 2.0 * sp.diags(proxy.whisper), sp.eye(2), format="csr")
+    quadratic = sp.kron(_MIX * proxy.H + 2.0 * sp.diags(proxy.whisper), sp.eye(2), format="csr")
+    H = block_matrix(at, blocks, 2 * n) + quadratic
     if contact is not None:
         H = H + contact
     free = proxy.perm[rows[proxy.perm]]
     coords = np.stack([2 * free, 2 * free + 1], axis=1).ravel()
-    A = H.tocsr()[coords][:, coords].tocsc()
-    lu = splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0)
-    return SecondOrderProxy(H.tocsr(), coords, lu, proxy)
+    H = H.tocsr()
+    lu = splu(H[coords][:, coords].tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0)
+    return SecondOrderProxy(H, coords, lu, proxy)
