@@ -87,7 +87,16 @@ def dirichlet_hessians(J, area) -> np.ndarray:
 
     With F = |J|^2 and D = det J: the Hessian of F is 2 I, of D the constant ``HD``, and
     that of F / D^2 is ``2 I / D^2 - 2 (gF gD^T + gD gF^T) / D^3 + 6 F gD gD^T / D^4 -
-    2 F HD / D^3`` (gF = 2 J, gD = (d, -c, -b, a))."""
+    2 F HD / D^3`` (gF = 2 J, gD = (d, -c, -b, a)).
+
+    The projection is closed-form (Smith, De Goes and Kim 2019, analytic eigensystems):
+    in the singular values s1, s2 the energy is ``f = s1^2 + s2^2 + s1^-2 + s2^-2``, whose
+    Hessian has the eigenvalues ``f_ii = 2 + 6 / s_i^4`` on the two scalings, ``(f_1 -
+    f_2) / (s1 - s2) = 2 + 2 (s1^2 + s1 s2 + s2^2) / (s1 s2)^3`` on the flip, and ``(f_1 +
+    f_2) / (s1 + s2) = 2 - 2 (s1^2 - s1 s2 + s2^2) / (s1 s2)^3`` on the twist, the one
+    that can be negative. The twist is the turn ``R90 U V^T`` of the nearest rotation
+    ``U V^T``; with the conformal parts q, r (s = q +- r) its eigenvalue is ``2 - 2 (q^2 +
+    3 r^2) / (q^2 - r^2)^3``. Faces that fold (no such frame) are projected numerically."""
     a, b, c, d = J
     Jv = np.stack([a, b, c, d], axis=1)
     F = (Jv * Jv).sum(axis=1)
@@ -96,15 +105,22 @@ def dirichlet_hessians(J, area) -> np.ndarray:
     HD = np.zeros((4, 4))
     HD[0, 3] = HD[3, 0] = 1.0
     HD[1, 2] = HD[2, 1] = -1.0
+    q, r = conformal_parts(a, b, c, d)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         inv = 1.0 / D
         H = (2.0 * (1.0 + inv * inv))[:, None, None] * np.eye(4)
         H -= (2.0 * inv**3)[:, None, None] * (gF[:, :, None] * gD[:, None, :] + gD[:, :, None] * gF[:, None, :])
         H += (6.0 * F * inv**4)[:, None, None] * (gD[:, :, None] * gD[:, None, :])
         H -= (2.0 * F * inv**3)[:, None, None] * HD
+        twist = np.stack([-(c - b), -(a + d), a + d, -(c - b)], axis=1) / (2.0 * np.sqrt(2.0) * q)[:, None]
+        negative = np.minimum(2.0 - 2.0 * (q * q + 3.0 * r * r) / (q * q - r * r) ** 3, 0.0)
+        H -= negative[:, None, None] * (twist[:, :, None] * twist[:, None, :])
     H = np.where(np.isfinite(H).all(axis=(1, 2))[:, None, None], H, 0.0)
-    w, V = np.linalg.eigh(H)
-    return np.einsum("fij,fj,fkj->fik", V, np.maximum(w, 0.0), V) * area[:, None, None]
+    folded = np.flatnonzero(~(D > 0))
+    if len(folded):
+        w, V = np.linalg.eigh(H[folded])
+        H[folded] = (V * np.maximum(w, 0.0)[:, None, :]) @ V.transpose(0, 2, 1)
+    return H * area[:, None, None]
 
 
 def block_matrix(at: np.ndarray, blocks: np.ndarray, size: int) -> sp.csr_matrix:

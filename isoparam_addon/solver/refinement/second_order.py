@@ -83,7 +83,7 @@ def second_order_proxy(
     # (a, b, c, d) of a face from its corners' (u0, v0, u1, v1, u2, v2)
     B = np.zeros((m, 4, 6))
     B[:, 0, 0::2], B[:, 1, 0::2], B[:, 2, 1::2], B[:, 3, 1::2] = fr.dx, fr.dy, fr.dx, fr.dy
-    blocks = np.einsum("fki,fkl,flj->fij", B, P, B)
+    blocks = B.transpose(0, 2, 1) @ P @ B
     at = np.stack([2 * fr.faces, 2 * fr.faces + 1], axis=2).reshape(m, 6)
     quadratic = sp.kron(_MIX * proxy.H + 2.0 * sp.diags(proxy.whisper), sp.eye(2), format="csr")
     H = block_matrix(at, blocks, 2 * n) + quadratic
