@@ -747,6 +747,19 @@ def test_the_projected_hessian_is_the_energys_with_its_negative_eigenvalues_set_
     assert np.isfinite(Pf).all() and np.linalg.eigvalsh(Pf).min() > -1e-9 * np.abs(Pf).max()
 
 
+def test_a_block_pattern_sums_each_new_set_of_blocks_where_they_belong():
+    from isoparam_addon.solver.refinement.per_face import BlockPattern
+
+    rng = np.random.default_rng(5)
+    at = rng.integers(0, 12, size=(40, 3))  # blocks that share rows and columns
+    pattern = BlockPattern.of(at, 12)
+    for _ in range(2):  # one pattern, two sets of blocks
+        blocks = rng.normal(size=(40, 3, 3))
+        dense = np.zeros((12, 12))
+        np.add.at(dense, (at[:, :, None], at[:, None, :]), blocks)
+        np.testing.assert_allclose(pattern.matrix(blocks).toarray(), dense, atol=1e-12)
+
+
 def test_the_barriers_normal_curvature_is_its_second_derivative_along_the_normal():
     from isoparam_addon.solver.refinement.contact import Contact, Near
 

@@ -6,6 +6,8 @@ collapses, and SLIM's per-face proxy weights: the kernels the refinement descend
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -13,6 +15,7 @@ from ..geometry import TINY, conformal_parts, det2, dirichlet_parts, frames_of, 
 from ..mesh.islands import Labelled
 
 __all__ = [
+    "BlockPattern",
     "FaceFrames",
     "block_matrix",
     "dirichlet_hessians",
@@ -123,12 +126,42 @@ def dirichlet_hessians(J, area) -> np.ndarray:
     return H * area[:, None, None]
 
 
+@dataclass(frozen=True)
+class BlockPattern:
+    """Where dense blocks, block i over the rows and columns ``at[i]``, land in the
+    (size, size) CSR matrix that sums them: built once for a set of faces, it turns each
+    new set of their blocks into a matrix by one ``bincount`` (no sort of the entries)."""
+
+    indptr: np.ndarray
+    indices: np.ndarray
+    slot: np.ndarray  # (p k^2,) each block entry's place in the matrix's data
+    size: int
+
+    @classmethod
+    def of(cls, at: np.ndarray, size: int) -> BlockPattern:
+        k = at.shape[1]
+        rows, cols = np.repeat(at, k, axis=1).ravel(), np.tile(at, (1, k)).ravel()
+        key = rows.astype(np.int64) * size + cols
+        order = np.argsort(key, kind="stable")
+        ranked = key[order]
+        first = np.ones(len(ranked), dtype=bool)
+        first[1:] = ranked[1:] != ranked[:-1]
+        slot = np.empty(len(key), dtype=np.int64)
+        slot[order] = np.cumsum(first) - 1
+        distinct = ranked[first]
+        indptr = np.searchsorted(distinct // size, np.arange(size + 1))
+        return cls(indptr, distinct % size, slot, size)
+
+    def matrix(self, blocks: np.ndarray) -> sp.csr_matrix:
+        """The sum of ``blocks`` (p, k, k) as a sparse (size, size) matrix."""
+        data = np.bincount(self.slot, blocks.ravel(), minlength=len(self.indices))
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.size, self.size))
+
+
 def block_matrix(at: np.ndarray, blocks: np.ndarray, size: int) -> sp.csr_matrix:
     """The sparse (size, size) matrix that sums dense blocks ``blocks`` (p, k, k), block i
     over the rows and columns ``at[i]`` (p, k): an assembled Hessian."""
-    k = at.shape[1]
-    rows, cols = np.repeat(at, k, axis=1).ravel(), np.tile(at, (1, k)).ravel()
-    return sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(size, size))
+    return BlockPattern.of(at, size).matrix(blocks)
 
 
 def max_step(J, dJ, limit: float = np.inf):

@@ -24,7 +24,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ..mesh.islands import Islands
-from .per_face import FaceFrames, block_matrix, dirichlet_hessians
+from .per_face import BlockPattern, FaceFrames, dirichlet_hessians
 from .proxy import Proxy
 
 __all__ = ["SecondOrderProxy", "second_order_proxy"]
@@ -36,12 +36,14 @@ _MIX = 1e-4  # the quadratic proxy's share in it: the energy's Hessian leaves tu
 class SecondOrderProxy:
     """The descent's proxy ``H`` over the 2n coordinates (u, v interleaved), factored on
     ``coords``, and the ``quadratic`` proxy it stands in for (built again from, and what
-    is handed on, :func:`.descent._go_on_alone`)."""
+    is handed on, :func:`.descent._go_on_alone`); ``pattern``: where its faces' blocks
+    land in ``H``, for the next build."""
 
     H: sp.csr_matrix
     coords: np.ndarray
     lu: Any
     quadratic: Proxy
+    pattern: BlockPattern
 
     @property
     def frames(self) -> FaceFrames:
@@ -73,10 +75,12 @@ def second_order_proxy(
     (the others add nothing), factored on the free vertices of ``rows`` (n,) bool, with
     the barrier's ``contact`` curvature (a sparse (2n, 2n) matrix, or None) added; ``proxy``
     the quadratic one (or a second-order one, whose quadratic proxy is taken)."""
-    if isinstance(proxy, SecondOrderProxy):
-        proxy = proxy.quadratic
     fr = proxy.frames
     m, n = len(fr.area), len(proxy.pinned)
+    if isinstance(proxy, SecondOrderProxy):
+        pattern, proxy = proxy.pattern, proxy.quadratic
+    else:
+        pattern = BlockPattern.of(np.stack([2 * fr.faces, 2 * fr.faces + 1], axis=2).reshape(m, 6), 2 * n)
     ones, zeros = np.ones(m), np.zeros(m)
     live = tuple(np.where(live_face, j, one) for j, one in zip(J, (ones, zeros, zeros, ones)))
     P = dirichlet_hessians(live, np.where(live_face, fr.area, 0.0))
@@ -84,13 +88,12 @@ def second_order_proxy(
     B = np.zeros((m, 4, 6))
     B[:, 0, 0::2], B[:, 1, 0::2], B[:, 2, 1::2], B[:, 3, 1::2] = fr.dx, fr.dy, fr.dx, fr.dy
     blocks = B.transpose(0, 2, 1) @ P @ B
-    at = np.stack([2 * fr.faces, 2 * fr.faces + 1], axis=2).reshape(m, 6)
     quadratic = sp.kron(_MIX * proxy.H + 2.0 * sp.diags(proxy.whisper), sp.eye(2), format="csr")
-    H = block_matrix(at, blocks, 2 * n) + quadratic
+    H = pattern.matrix(blocks) + quadratic
     if contact is not None:
         H = H + contact
     free = proxy.perm[rows[proxy.perm]]
     coords = np.stack([2 * free, 2 * free + 1], axis=1).ravel()
     H = H.tocsr()
     lu = splu(H[coords][:, coords].tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0)
-    return SecondOrderProxy(H, coords, lu, proxy)
+    return SecondOrderProxy(H, coords, lu, proxy, pattern)
