@@ -27,8 +27,9 @@ crawls; such an island takes SLIM steps (Rabinovich et al. 2017), and its proxy 
 Laplacian re-weighted per face from its singular values as in SLIM, factored again when
 its energy has fallen by 30% since, or every 20 iterations, until it is near isometric.
 An iteration costs one pair of triangular solves, a dozen sparse products and the line
-search. A descent still going after ``_SECOND_ORDER_AFTER`` iterations is one whose steps
-are capped (crushed faces, contact) and whose end would follow rounding: from there its
+search. A descent still going after ``_SECOND_ORDER_AFTER`` iterations (most islands stop
+sooner) is one whose steps are capped (crushed faces, contact), or one that starts far from
+its optimum, and whose end would follow rounding: from there its
 proxy is the energy's projected Hessian with the barrier's curvature (:mod:`.second_order`),
 built again every ``_SECOND_ORDER_EVERY`` iterations.
 

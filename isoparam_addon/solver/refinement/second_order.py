@@ -1,4 +1,4 @@
-"""The descent's second-order proxy, for descents that go on long.
+"""The descent's second-order proxy, for descents that go on past a few dozen iterations.
 
 L-BFGS starts each step from the quadratic proxy (:mod:`.proxy`), a Laplacian that knows
 neither the energy's curvature where faces are crushed nor the contact barrier's. Where
