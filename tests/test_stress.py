@@ -65,3 +65,28 @@ def test_the_prediction_is_smooth_in_the_mesh():
     p1 = _predicted(V * (1 + 1e-12 * rng.standard_normal(V.shape)), F)[0]
     assert np.abs(p1.energy() - p0.energy()).max() < 1e-6 * (p0.energy().max() - 4.0)
     assert np.abs(p1.trace - p0.trace).max() < 1e-6 * np.abs(p0.trace).max()
+
+
+def test_charts_predicted_alone_are_predicted_as_among_the_others():
+    from isoparam_addon.solver.charting.charts import _predicted as predicted_alone
+    from isoparam_addon.solver.charting.charts import _Split
+
+    # two caps side by side, two islands: the second predicted alone
+    V1, F1 = ex.spherical_cap(14, 0.6)[:2]
+    V2, F2 = ex.spherical_cap(12, 0.8)[:2]
+    V = np.vstack([V1, V2 + [3.0, 0.0, 0.0]])
+    F = np.vstack([F1, F2 + len(V1)])
+    both, X, topo, boundary = _predicted(V, F)
+    assert topo.n_islands == 2
+    order = np.arange(len(X))
+    charts = _Split(topo.face_island, 2, boundary, order)
+    whole = predicted_alone(X, topo.faces, charts, np.ones(2, dtype=bool))
+    np.testing.assert_allclose(whole.excess, both.excess, rtol=1e-8)  # (another elimination order)
+    alone = predicted_alone(X, topo.faces, charts, np.array([False, True]))
+    assert alone.excess[0] == 0.0 and alone.area[0] == 0.0
+    np.testing.assert_allclose(alone.excess[1], both.excess[1], rtol=1e-4)
+    np.testing.assert_allclose(alone.area[1], both.area[1], rtol=1e-12)
+    on = np.zeros(len(X), dtype=bool)
+    on[topo.faces[topo.face_island == 1].ravel()] = True
+    assert (alone.phi[~on] == 0).all()
+    np.testing.assert_allclose(alone.phi[on], both.phi[on], atol=1e-4 * np.abs(both.phi[on]).max())

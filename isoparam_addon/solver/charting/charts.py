@@ -426,11 +426,13 @@ def _placed_cuts(
     scale = None
     cuts = np.zeros((0, 2), dtype=np.int64)
     cut_owners = np.zeros(0, dtype=np.int64)
+    touched = None  # the islands the last round cut: the only ones predicted (and judged) again
     for j in range(_ROUNDS):
         tick(j / _ROUNDS)
         charts, graph, ends, split_faces, X = base.cut(cuts)
-        prediction = stress.predict(X, split_faces, charts.boundary, charts.face_chart, charts.n, charts.order)
         owner = owners.face[faces[first_rows(charts.face_chart, charts.n)]]
+        judged = np.ones(charts.n, dtype=bool) if touched is None else np.isin(owner, touched)
+        prediction = _predicted(X, split_faces, charts, judged)
         ratio = _smoothed(graph, prediction.face_trace(split_faces), base.area)
         if measured is not None and scale is None:  # refined against predicted, per island
             predicted = safe_divide(
@@ -447,8 +449,35 @@ def _placed_cuts(
         if not len(new):
             break
         cuts = np.vstack([cuts, new])
-        cut_owners = unique_sorted(np.concatenate([cut_owners, owner[split]]))
+        touched = unique_sorted(owner[split])
+        cut_owners = unique_sorted(np.concatenate([cut_owners, touched]))
     return used[cuts], cut_owners
+
+
+def _predicted(X: np.ndarray, faces: np.ndarray, charts: _Split, judged: np.ndarray) -> stress.Prediction:
+    """:func:`.stress.predict` of the charts ``judged`` (per chart) alone, over the split
+    vertices ``X`` and ``faces`` of all: the others get nothing (no excess, no area, phi 0).
+    A round's cuts change only the charts they cut, and a chart's prediction is its own
+    (its Laplacian is a block of its own), so a round after the first predicts the islands
+    the last one cut, not the whole part again."""
+    if judged.all():
+        return stress.predict(X, faces, charts.boundary, charts.face_chart, charts.n, charts.order)
+    rows = np.flatnonzero(judged[charts.face_chart])
+    used = unique_sorted(faces[rows])
+    index = np.full(len(X), -1, dtype=np.int64)
+    index[used] = np.arange(len(used))
+    ids = np.flatnonzero(judged)
+    local = np.full(charts.n, -1, dtype=np.int64)
+    local[ids] = np.arange(len(ids))
+    order = index[charts.order]
+    part = stress.predict(
+        X[used], index[faces[rows]], charts.boundary[used], local[charts.face_chart[rows]], len(ids), order[order >= 0]
+    )
+    excess, area = np.zeros(charts.n), np.zeros(charts.n)
+    excess[ids], area[ids] = part.excess, part.area
+    trace, phi = np.zeros(len(X)), np.zeros(len(X))
+    trace[used], phi[used] = part.trace, part.phi
+    return stress.Prediction(excess, area, trace, phi)
 
 
 @dataclass(frozen=True)
