@@ -35,3 +35,28 @@ def test_a_large_flow_runs_coarse_then_in_a_band_and_finds_the_same_cut(monkeypa
     assert _cost(graph, side) == pytest.approx(_cost(graph, whole), rel=1e-9)
     # and through the public search, region and all
     assert (mincut.source_side(graph, source, sink) == side).sum() > 0.99 * len(side)
+
+
+def test_a_flow_over_a_narrowed_graph_runs_on_the_faces_its_edges_touch(monkeypatch):
+    """A graph narrowed to a band keeps every face; the source and sink faces beyond the
+    band take no part in the flow (each of Dinic's phases would visit them), and land on
+    their own side: the same cut as the flow over the band's faces alone."""
+    V, F = ex.peaks(40)
+    graph = mincut.face_graph(V, F, np.zeros(len(F), dtype=np.int64), np.zeros((0, 2), dtype=np.int64))
+    x = graph.centroids[:, 0]
+    lo, hi = np.quantile(x, [0.4, 0.6])
+    band = (x > lo) & (x < hi)
+    narrowed = graph.among(band)
+    source, sink = x < 0.5 * (lo + hi) - 0.05 * (hi - lo), x > 0.5 * (lo + hi) + 0.05 * (hi - lo)
+    sizes = []
+    flow = mincut.csgraph.maximum_flow
+    monkeypatch.setattr(mincut.csgraph, "maximum_flow", lambda g, s, t: sizes.append(g.shape[0]) or flow(g, s, t))
+    side = mincut._exact_side(narrowed, source, sink)
+    assert sizes == [int(band.sum()) + 2]  # the band's faces, the source and the sink
+    assert side[source & ~band].all() and not side[sink & ~band].any()
+    # the band alone, renumbered, cut the same way
+    index = np.cumsum(band) - 1
+    alone = mincut.FaceGraph(index[narrowed.f], index[narrowed.g], narrowed.edges, narrowed.cost, graph.centroids[band])
+    assert np.array_equal(side[band], mincut._exact_side(alone, source[band], sink[band]))
+    assert _separates(narrowed, side, source & band, sink & band)
+    assert 0 < side[band].sum() < band.sum()

@@ -262,12 +262,20 @@ def _banded_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.n
 
 
 def _exact_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.ndarray:
-    """:func:`_flow_side` by one maximum flow over all of ``graph``."""
+    """:func:`_flow_side` by one maximum flow over all of ``graph``.
+
+    Only the faces the edges touch take part in the flow: a source or sink face with no
+    edge carries none, and is on its own side whatever the flow (the source side is the
+    faces the source reaches in the residual graph, the same for every maximum flow). A
+    graph narrowed to a band or a region (:func:`_banded_side`, :func:`source_side`)
+    keeps every face, so a flow over all of them would spend each of Dinic's phases on
+    the faces beyond it."""
     m = graph.n_faces
-    # only the faces the edges, sources and sinks touch take part, numbered 0..k-1
+    # only the faces the edges touch take part, numbered 0..k-1
     node = np.zeros(m, dtype=bool)
     node[graph.f] = node[graph.g] = True
-    node |= source | sink
+    alone = source & ~node  # (on the source side; a sink face alone is not)
+    source, sink = source & node, sink & node
     index = np.cumsum(node) - 1
     k = int(node.sum())
     f, g = index[graph.f], index[graph.g]
@@ -289,7 +297,7 @@ def _exact_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.nd
     reach = csgraph.breadth_first_order(residual, S, directed=True, return_predecessors=False)
     side = np.zeros(k + 2, dtype=bool)
     side[reach] = True
-    return node & side[index]
+    return (node & side[index]) | alone
 
 
 def without_chips(graph: FaceGraph, cut: np.ndarray, seeds: np.ndarray | None = None, fewest=0) -> np.ndarray:
