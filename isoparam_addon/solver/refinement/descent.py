@@ -25,7 +25,9 @@ faces: a Tutte embedding of a closed surface opened by one short cut) has curvat
 there that the cotangent proxy underestimates by orders of magnitude, and L-BFGS with it
 crawls; such an island takes SLIM steps (Rabinovich et al. 2017), and its proxy is a
 Laplacian re-weighted per face from its singular values as in SLIM, factored again when
-its energy has fallen by 30% since, or every 20 iterations, until it is near isometric.
+its energy has fallen by 30% since, or every 20 iterations, to the end of its descent: near
+isometric its few crushed faces are still where the cotangent proxy errs most, and a proxy
+weighted as it was many iterations before caps each step at a face about to collapse.
 An iteration costs one pair of triangular solves, a dozen sparse products and the line
 search. A descent still going after ``_SECOND_ORDER_AFTER`` iterations (most islands stop
 sooner) is one whose steps are capped (crushed faces, contact), or one that starts far from
@@ -95,7 +97,6 @@ _MEMORY = 8  # L-BFGS pairs
 _HANDOVER = 0.25  # once the islands still descending hold at most this share of the rows: own factor
 _WINDOW = 5  # iterations over which the stopping test measures the decrease
 _CRUSHED = 2.0  # an island that starts above this times the isometric energy gets the re-weighted proxy
-_NEAR = 1.1  # ... until it is below this times the isometric energy
 _REFRESH_DROP = 0.7  # factor the re-weighted proxy again once a far island's energy fell this much
 _REFRESH_EVERY = 20  # ... or after this many iterations
 _SLIM_STEPS = 30  # at most this many SLIM steps from a start far from isometric
@@ -274,17 +275,12 @@ class _Reweighting:
     def starting(cls, far: np.ndarray) -> _Reweighting:
         return cls(far, np.full(len(far), np.inf), np.zeros(len(far), dtype=np.int64))
 
-    def still_far(self, which: np.ndarray, E: np.ndarray, island_area: np.ndarray) -> np.ndarray:
-        """The islands of ``which`` that re-weight and, at energies ``E``, are not yet near
-        isometric (``_NEAR`` times ``4 * island_area``)."""
-        return which & self.far & (E > _NEAR * 4.0 * island_area)
-
-    def due(self, which: np.ndarray, E: np.ndarray, island_area: np.ndarray, iteration: int) -> np.ndarray:
-        """The islands of ``which`` still far (:meth:`still_far`) whose energy fell by
+    def due(self, which: np.ndarray, E: np.ndarray, iteration: int) -> np.ndarray:
+        """The islands of ``which`` that re-weight whose energy ``E`` fell by
         ``_REFRESH_DROP`` since their weights were set, or that ``_REFRESH_EVERY``
         iterations went by since."""
         fell = E < _REFRESH_DROP * self.energy
-        return self.still_far(which, E, island_area) & (fell | (iteration - self.at >= _REFRESH_EVERY))
+        return which & self.far & (fell | (iteration - self.at >= _REFRESH_EVERY))
 
     def set(self, which: np.ndarray, E: np.ndarray, iteration: int) -> None:
         """The weights of the islands ``which`` were set at energies ``E`` in ``iteration``."""
@@ -439,7 +435,7 @@ class _Descent:
         """Re-weigh the proxy of the islands ``which`` (n_islands,) bool, by default of the
         active ones that are due (:meth:`_Reweighting.due`)."""
         if which is None:
-            which = self.reweighting.due(self.active, self.E, self.island_area, iteration)
+            which = self.reweighting.due(self.active, self.E, iteration)
         if not which.any():
             return
         mine = self.per_face.expand(which) * np.ones(len(self.faces), dtype=bool)
@@ -479,7 +475,7 @@ def _local_global(desc: _Descent, steps: int) -> None:
     for k in range(max(steps, _SLIM_STEPS)):  # local/global steps
         tick()
         desc.watch_pending()
-        far = desc.reweighting.still_far(stepping, desc.E, desc.island_area)
+        far = stepping & desc.reweighting.far
         stepping &= far | (k < steps)
         if not stepping.any():
             break
