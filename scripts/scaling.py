@@ -173,7 +173,8 @@ def main(argv=None) -> int:
             f"{r['seconds'] / first[r['method']]:.1f}x | {r['memory']:.0f} |"
         )
     plot(rows, args.png)
-    print(f"\n![time and memory against size]({args.png.relative_to(ROOT)})")
+    png = args.png.resolve()
+    print(f"\n![time and memory against size]({png.relative_to(ROOT) if png.is_relative_to(ROOT) else png})")
     return 0
 
 
