@@ -222,6 +222,30 @@ def test_a_step_cut_short_by_a_cap_does_not_stop_an_island():
     assert d.active.tolist() == [True, False]
 
 
+def test_one_poor_step_after_the_first_five_does_not_stop_an_island():
+    # a last step that lowered the energy by a millionth: in the descent's first steps the
+    # island stops (it was converged when the descent began); after five steps that
+    # lowered it by a tenth, one poor step does not stop it, the window judges
+    from types import SimpleNamespace
+
+    from isoparam_addon.solver.refinement import descent
+
+    def state(history):
+        E = np.array([10.0])
+        return SimpleNamespace(
+            history=[E * h for h in history],
+            E=E,
+            tol=2e-4,
+            active=np.ones(1, dtype=bool),
+            watch=SimpleNamespace(pending=np.zeros(1, dtype=bool)),
+        )
+
+    early, later = state([1.0 + 1e-6]), state([1.1, 1.08, 1.06, 1.04, 1.0 + 1e-6])
+    for d in (early, later):
+        descent._converged(d, np.zeros(1, dtype=bool))
+    assert early.active.tolist() == [False] and later.active.tolist() == [True]
+
+
 def test_a_slow_island_goes_on_alone_where_it_left_off(monkeypatch):
     # a developable S-surface (done after 1 iteration) beside a closed box (11): once the
     # box is all that descends it goes on with its own proxy and the same L-BFGS state,

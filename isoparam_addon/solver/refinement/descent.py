@@ -97,6 +97,7 @@ _MEMORY = 8  # L-BFGS pairs
 _HANDOVER = 0.25  # once the islands still descending hold at most this share of the rows: own factor
 _WINDOW = 5  # iterations over which the stopping test measures the decrease
 _CRUSHED = 2.0  # an island that starts above this times the isometric energy gets the re-weighted proxy
+_NEAR = 1.1  # ... and takes SLIM steps, not ARAP steps, until it is below this times the isometric energy
 _REFRESH_DROP = 0.7  # factor the re-weighted proxy again once a far island's energy fell this much
 _REFRESH_EVERY = 20  # ... or after this many iterations
 _SLIM_STEPS = 30  # at most this many SLIM steps from a start far from isometric
@@ -475,7 +476,7 @@ def _local_global(desc: _Descent, steps: int) -> None:
     for k in range(max(steps, _SLIM_STEPS)):  # local/global steps
         tick()
         desc.watch_pending()
-        far = stepping & desc.reweighting.far
+        far = stepping & desc.reweighting.far & (desc.E > _NEAR * 4.0 * desc.island_area)
         stepping &= far | (k < steps)
         if not stepping.any():
             break
@@ -604,14 +605,16 @@ def _line_search(d: _Descent, p: np.ndarray, slope: np.ndarray) -> _Step:
 
 def _converged(desc: _Descent, capped: np.ndarray) -> None:
     """Stop the islands whose energy fell by less than ``tol`` over the last
-    ``_WINDOW`` iterations, or by less than ``tol / 100`` over the last one (an island
-    that was converged when the descent began) unless that step was ``capped``
-    (n_islands,) bool: cut short by a face about to collapse or by contact, its small
-    decrease measures the cap, not the distance to the optimum."""
+    ``_WINDOW`` iterations, or, before the descent has taken that many, by less than
+    ``tol / 100`` over the last one (an island that was converged when the descent
+    began) unless that step was ``capped`` (n_islands,) bool: cut short by a face about
+    to collapse or by contact, its small decrease measures the cap, not the distance to
+    the optimum. Later, one poor step (a direction the L-BFGS memory got wrong) does not
+    stop an island far from its optimum: the window judges."""
     last = desc.history[-1] if desc.history else None
     desc.history = [*desc.history, desc.E][-(_WINDOW + 1) :]
     pending = desc.watch.pending
-    if last is not None:
+    if last is not None and len(desc.history) <= _WINDOW:
         desc.active &= ~(last - desc.E < 0.01 * desc.tol * desc.E) | pending | capped
     if len(desc.history) > _WINDOW:
         desc.active &= ~(desc.history[0] - desc.E < desc.tol * desc.E) | pending
