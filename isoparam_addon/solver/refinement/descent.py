@@ -36,8 +36,8 @@ proxy is the energy's projected Hessian with the barrier's curvature (:mod:`.sec
 built again every ``_SECOND_ORDER_EVERY`` iterations.
 
 **Stopping.** An island stops when its energy fell by less than ``tol`` (relative) over
-the last 5 iterations, or by less than a hundredth of that over the last one, or when no
-step along a descent direction lowers it; the
+the last 5 iterations, or, within the first 5, by less than a hundredth of that over the
+last one, or when no step along a descent direction lowers it; the
 iteration cap is a safety net, not the usual exit. A step that a face about to collapse
 (or contact) cut short does not stop an island by the last iteration's test: its small
 decrease measures the cap, not the distance to the optimum (islands far from isometric
