@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -782,6 +783,23 @@ def test_a_block_pattern_sums_each_new_set_of_blocks_where_they_belong():
         dense = np.zeros((12, 12))
         np.add.at(dense, (at[:, :, None], at[:, None, :]), blocks)
         np.testing.assert_allclose(pattern.matrix(blocks).toarray(), dense, atol=1e-12)
+
+
+def test_a_laplacian_assembled_again_is_the_one_of_the_sparse_products():
+    from isoparam_addon.solver.refinement.per_face import FaceFrames
+
+    V, F = ex.saddle(9)[:2]
+    frames = FaceFrames(V, F)
+    rng = np.random.default_rng(2)
+    first = frames.laplacian()  # the products
+    assert frames._pattern is None
+    for _ in range(2):  # then the kept pattern, with other weights each time
+        w = rng.uniform(0.2, 5.0, len(F))
+        A = sp.diags(frames.area * w)
+        product = (frames.DxT @ A @ frames.Dx + frames.DyT @ A @ frames.Dy).toarray()
+        np.testing.assert_allclose(frames.laplacian(w).toarray(), product, atol=1e-12 * np.abs(product).max())
+    assert frames._pattern is not None
+    np.testing.assert_allclose(frames.laplacian().toarray(), first.toarray(), atol=1e-12 * abs(first).max())
 
 
 def test_the_barriers_normal_curvature_is_its_second_derivative_along_the_normal():

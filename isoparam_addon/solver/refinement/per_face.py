@@ -60,6 +60,8 @@ class FaceFrames:
         self.Dx = sp.csr_matrix((dx.ravel(), (rows, idx)), shape=(m, n))
         self.Dy = sp.csr_matrix((dy.ravel(), (rows, idx)), shape=(m, n))
         self.DxT, self.DyT = self.Dx.T.tocsr(), self.Dy.T.tocsr()
+        self._assembled = False  # (whether :meth:`laplacian` ran once)
+        self._pattern: BlockPattern | None = None
 
     def jacobians(self, uv: np.ndarray):
         """(a, b, c, d) per face: J = [[a, b], [c, d]] = [[u_x, u_y], [v_x, v_y]]."""
@@ -68,9 +70,22 @@ class FaceFrames:
 
     def laplacian(self, weights: np.ndarray | None = None) -> sp.csr_matrix:
         """The cotangent Laplacian ``sum_f w_f A_f (Dx^T Dx + Dy^T Dy)`` (n, n), with
-        per-face ``weights`` (m,) (1 without)."""
-        A = sp.diags(self.area if weights is None else self.area * weights)
-        return (self.DxT @ A @ self.Dx + self.DyT @ A @ self.Dy).tocsr()
+        per-face ``weights`` (m,) (1 without).
+
+        The first is two sparse products; from the second on (a proxy re-weighted again
+        and again) the faces' 3x3 blocks are summed into a :class:`BlockPattern` kept
+        from then: one ``bincount`` each, a third of the products' time on large meshes
+        once its sort is paid."""
+        wa = self.area if weights is None else self.area * weights
+        if self._pattern is None and not self._assembled:
+            self._assembled = True
+            A = sp.diags(wa)
+            return (self.DxT @ A @ self.Dx + self.DyT @ A @ self.Dy).tocsr()
+        if self._pattern is None:
+            self._pattern = BlockPattern.of(self.faces, self.Dx.shape[1])
+        dx, dy = self.dx, self.dy
+        blocks = dx[:, :, None] * dx[:, None, :] + dy[:, :, None] * dy[:, None, :]
+        return self._pattern.matrix(blocks * wa[:, None, None])
 
 
 def symmetric_dirichlet(a, b, c, d, area):
