@@ -77,7 +77,7 @@ class FaceFrames:
         from then: one ``bincount`` each, a third of the products' time on large meshes
         once its sort is paid."""
         wa = self.area if weights is None else self.area * weights
-        if self._pattern is None and not self._assembled:
+        if not self._assembled:
             self._assembled = True
             A = sp.diags(wa)
             return (self.DxT @ A @ self.Dx + self.DyT @ A @ self.Dy).tocsr()
