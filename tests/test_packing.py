@@ -237,3 +237,45 @@ def test_the_table_of_cells_taken_kept_as_boxes_are_placed_is_the_table_made_ane
     anew = np.zeros_like(counts)
     np.cumsum(np.cumsum(grid, axis=0, dtype=np.int32), axis=1, out=anew[1:, 1:])
     assert placed > 10 and np.array_equal(counts, anew)
+
+
+def _fits_directly(region, mask):
+    """Where ``mask`` fits in ``region``, position by position (the definition)."""
+    h, w = mask.shape
+    sy, sx = region.shape[0] - h + 1, region.shape[1] - w + 1
+    return np.array([[not (region[y : y + h, x : x + w] & mask).any() for x in range(sx)] for y in range(sy)])
+
+
+def test_the_free_positions_of_regions_that_share_their_transforms_are_each_regions_own(rng):
+    # the rules' layouts grow apart: one transform size for both (the larger) must give
+    # each region the positions it would get alone, which are the positions where the
+    # mask meets no cell taken
+    regions = [rng.uniform(size=(37, 52)) < 0.08, rng.uniform(size=(45, 41)) < 0.05]
+    regions.append(regions[0].copy())  # (rules that agree so far: worked out once)
+    poses = [rng.uniform(size=s) < 0.6 for s in ((5, 7), (9, 4), (1, 1), (50, 3))]
+    together = packing._free_maps(regions, poses, None)
+    for r, region in enumerate(regions):
+        alone = packing._free_maps([region], poses, None)[0]
+        for j, pose in enumerate(poses):
+            assert np.array_equal(together[r][j], alone[j])
+            if pose.shape[0] <= region.shape[0]:
+                assert np.array_equal(together[r][j], _fits_directly(region, pose))
+            else:  # (does not fit at all)
+                assert together[r][j].size == 0
+    wanted = packing._free_maps(regions, poses, [[1], [], [0, 1]])
+    assert np.array_equal(wanted[0][1], together[0][1]) and np.array_equal(wanted[2][0], together[0][0])
+    assert sum(f.size for f in wanted[0]) == together[0][1].size and not any(f.size for f in wanted[1])
+
+
+def test_a_pose_that_fits_on_the_coarse_cells_fits_at_full_resolution(rng):
+    # the screening places every pose on cells two by two: wherever it fits there, it
+    # fits at twice the position at full resolution (the screen never ranks a pose by a
+    # position it cannot take; past the region's last row and column the cells are free)
+    region = rng.uniform(size=(61, 58)) < 0.04
+    for shape in ((7, 10), (12, 5), (3, 3)):
+        pose = rng.uniform(size=shape) < 0.7
+        coarse = packing._free_maps([packing._pooled(region)], [packing._pooled(pose)], None)[0][0]
+        fine = _fits_directly(np.pad(region, ((0, 1), (0, 0))), pose)
+        ys, xs = np.nonzero(coarse)
+        assert len(ys) > 20
+        assert fine[2 * ys, 2 * xs].all()

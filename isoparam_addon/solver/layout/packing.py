@@ -14,13 +14,16 @@ more of the texture's texels land on the model.
    then its bounding box, then nearest the origin: the rule of xatlas's packer (J. Young,
    ``xatlas``: ``findChartLocation_bruteForce`` in ``packCharts``). Where an island fits
    is one FFT correlation of its cells with the cells taken, for every position and pose
-   at once.
+   at once. An island tried in many poses (the largest, in every frame) is first placed
+   on the cells two by two (a quarter of the transforms' work), and only its best poses
+   there are placed at full resolution.
 3. The other islands go by their boxes (lying or standing), smallest last, on a grid
    ``_FINER`` times finer, into the room left, holes first (summed-area tables, one per
    run of boxes of one size); the tiniest on shelves in blocks first.
 4. Both steps run by two placement rules (xatlas's smallest square, Blender's nearest
    corner); the packing with the smaller square is kept, then turned as a whole to the
-   angle of its smallest bounding square.
+   angle of its smallest bounding square. The rules place the large islands side by
+   side, so that a pose's transform serves both.
 
 Islands end ``2 * margin`` apart at least: each is grown by half of it (its cells cover
 every point within that Chebyshev distance), and grown islands never share a cell. Pure
@@ -55,6 +58,8 @@ _BLOCK = 12  # the side of those blocks, in fine cells
 _TIE = 1e-6  # relative differences below this are ties (decided by island number, or angle)
 _RULES = ("square", "corner")  # the placement rules tried (:func:`_best_box`)
 _WORKERS = 2  # threads for the FFTs of many poses at once (results do not depend on it)
+_SCREENED = 8  # islands tried in more poses than this are screened on a grid twice as coarse
+_SCREEN = 4  # ... and only their best poses there are placed at full resolution
 _ANGLES = 16  # first search for the tightest box, over a quarter turn; then refined
 
 
@@ -384,16 +389,15 @@ def _best_of_rules(masks, choices, boxes_lying: np.ndarray, aspect: float):
     square is kept (the first on a tie). Returns the large islands' cells, shapes and
     turns, and the boxes' cells (on the grid ``_FINER`` times finer) and turns."""
     best: tuple | None = None
-    for rule in _RULES:
-        grid, ex, ey, where, shape, turn = _place(masks, choices, aspect, rule)
+    for lay in _place(masks, choices, aspect):
         box_where, box_turn = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
-        ex, ey = ex * _FINER, ey * _FINER
+        ex, ey = lay.ex * _FINER, lay.ey * _FINER
         if len(boxes_lying):
-            grid = np.repeat(np.repeat(grid > 0, _FINER, axis=0), _FINER, axis=1)
-            box_where, box_turn, ex, ey = _place_boxes(grid, ex, ey, boxes_lying, aspect, rule)
+            grid = np.repeat(np.repeat(lay.grid > 0, _FINER, axis=0), _FINER, axis=1)
+            box_where, box_turn, ex, ey = _place_boxes(grid, ex, ey, boxes_lying, aspect, lay.rule)
         square = (max(ex / aspect, ey), ex * ey)
         if best is None or square < best[0]:
-            best = (square, where, shape, turn, box_where, box_turn)
+            best = (square, lay.where, lay.shape, lay.turn, box_where, box_turn)
     assert best is not None
     return best[1:]
 
@@ -481,36 +485,92 @@ def _room(grid: np.ndarray, need: int) -> np.ndarray:
     return bigger
 
 
-def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float, rule: str):
+@dataclass
+class _Layout:
+    """The large islands placed by one rule: the cells taken (``grid[y, x]``), the columns
+    ``ex`` and rows ``ey`` they span, and per island its mask's lower-left cell, shape and
+    quarter turn."""
+
+    rule: str
+    grid: np.ndarray
+    where: np.ndarray  # (k, 2)
+    shape: np.ndarray  # (k,)
+    turn: np.ndarray  # (k,)
+    ex: int = 0
+    ey: int = 0
+
+    def region(self, reach: int) -> np.ndarray:
+        """The cells where a pose at most ``reach`` cells across can be placed (the grid
+        made larger first where it is short)."""
+        self.grid = _room(self.grid, max(self.ex, self.ey) + reach)
+        return self.grid[: min(self.ey + reach, self.grid.shape[0]), : min(self.ex + reach, self.grid.shape[1])]
+
+    def take(self, u: int, x: int, y: int, mask: np.ndarray, shape: int, turn: int) -> None:
+        h, w = mask.shape
+        self.grid[y : y + h, x : x + w] += mask
+        self.ex, self.ey = max(self.ex, x + w), max(self.ey, y + h)
+        self.where[u], self.shape[u], self.turn[u] = (x, y), shape, turn
+
+
+def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float) -> list[_Layout]:
     """Place the units, largest first, each in the best of its shapes (``choices``: mask
-    numbers per unit) and their quarter turns. Returns the grid of cells taken, the cells
-    the units span (columns, rows), and per unit its mask's lower-left cell (k, 2), the
-    shape chosen (k,) and its quarter turn (k,)."""
+    numbers per unit) and their quarter turns, by every rule of ``_RULES`` side by side:
+    a unit's poses are transformed once for all the rules' layouts."""
     k = len(choices)
     cells = np.array([masks[c[0]].sum() for c in choices])
     order = np.lexsort((np.arange(k), -cells))
-    where = np.zeros((k, 2), dtype=np.int64)
-    shape = np.zeros(k, dtype=np.int64)
-    turn = np.zeros(k, dtype=np.int64)
     biggest = max((max(masks[c].shape) for c in range(len(masks))), default=1)
     side = int(np.ceil(np.sqrt(sum(masks[c[0]].size for c in choices)) * 1.6)) + biggest
-    grid = np.zeros((side, side), dtype=np.float32)
-    ex = ey = 0  # the cells taken so far lie in [0, ex) x [0, ey)
+    layouts = [
+        _Layout(
+            rule,
+            np.zeros((side, side), dtype=np.float32),
+            np.zeros((k, 2), dtype=np.int64),
+            np.zeros(k, dtype=np.int64),
+            np.zeros(k, dtype=np.int64),
+        )
+        for rule in _RULES
+    ]
     for done, u in enumerate(order):
         progress.tick(done / max(k, 1))
         poses = [(c, q, m) for c in choices[u] for q, m in enumerate(_turned_masks(masks[c]))]
-        reach = max(max(masks[c].shape) for c in choices[u])
-        grid = _room(grid, max(ex, ey) + reach)
-        ax, ay = min(ex + reach, grid.shape[1]), min(ey + reach, grid.shape[0])
-        masks_tried = [m for _, _, m in poses]
-        free = _free_positions(grid[:ay, :ax], masks_tried)
-        i, x, y = _best_pose(free, masks_tried, ex, ey, aspect, rule)
-        c, q, m = poses[i]
-        h, w = m.shape
-        grid[y : y + h, x : x + w] += m
-        ex, ey = max(ex, x + w), max(ey, y + h)
-        where[u], shape[u], turn[u] = (x, y), c, q
-    return grid, ex, ey, where, shape, turn
+        tried = [m for _, _, m in poses]
+        regions = [lay.region(max(max(masks[c].shape) for c in choices[u])) for lay in layouts]
+        free = _free_maps(regions, tried, _screened(regions, tried, layouts, aspect))
+        for lay, f in zip(layouts, free):
+            i, x, y = _best_pose(f, tried, lay.ex, lay.ey, aspect, lay.rule)
+            c, q, m = poses[i]
+            lay.take(u, x, y, m, c, q)
+    return layouts
+
+
+def _pooled(mask: np.ndarray) -> np.ndarray:
+    """``mask``'s cells two by two: a coarse cell is taken where any of its four is."""
+    h, w = mask.shape
+    padded = np.zeros((h + h % 2, w + w % 2), dtype=bool)
+    padded[:h, :w] = mask > 0
+    return padded.reshape(padded.shape[0] // 2, 2, padded.shape[1] // 2, 2).any(axis=(1, 3))
+
+
+def _screened(regions: list[np.ndarray], poses: list[np.ndarray], layouts: list[_Layout], aspect: float):
+    """Per layout, the poses worth placing at full resolution: for an island tried in more
+    than ``_SCREENED`` poses, the ``_SCREEN`` best when each is placed on the cells two by
+    two (a coarse fit is a fine one); all of them for the others."""
+    every = list(range(len(poses)))
+    if len(poses) <= _SCREENED or not any(r.any() for r in regions):
+        return [every for _ in regions]
+    coarse = [_pooled(m) for m in poses]
+    kept = []
+    for lay, region, free in zip(layouts, regions, _free_maps([_pooled(r) for r in regions], coarse, None)):
+        if not region.any():
+            kept.append(every)
+            continue
+        keys = []
+        for j, (f, m) in enumerate(zip(free, coarse)):
+            found = _best_in(f, m.shape[1], m.shape[0], (lay.ex + 1) // 2, (lay.ey + 1) // 2, aspect, lay.rule)
+            keys.append(((0,) + found[0] if found is not None else (1,), j))
+        kept.append(sorted(j for _, j in sorted(keys)[:_SCREEN]))
+    return kept
 
 
 def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: float, rule: str):
@@ -582,53 +642,90 @@ def _best_box(free: list[np.ndarray], shapes, ex: int, ey: int, aspect: float, r
     Ties go to the lowest, then leftmost."""
     best = None
     for q, ((w, h), f) in enumerate(zip(shapes, free)):
-        # both rules grow with x along a row: each row's best is its first free cell
-        first = f.argmax(axis=1)  # (0 in a row with none: told apart by the cell itself)
-        y = np.flatnonzero(f[np.arange(len(f)), first]) if f.size else np.zeros(0, dtype=np.int64)
-        if not len(y):
-            continue
-        x = first[y]
-        inner = (x + w <= ex) & (y + h <= ey)
-        if rule == "square" and inner.any():
-            x, y = x[inner], y[inner]
-        if rule == "corner" or inner.any():
-            reach = np.maximum(x, y) if rule == "square" else np.maximum((x + w) / aspect, y + h)
-            j = np.lexsort((x, y, reach))[0]
-            key = (0.0 if rule == "square" else float(reach[j]), float(reach[j]), y[j], x[j])
-        else:
-            wide, high = np.maximum(ex, x + w), np.maximum(ey, y + h)
-            square = np.maximum(wide / aspect, high)
-            metric = square * square + wide * high / aspect
-            tied = np.flatnonzero(metric == metric.min())
-            j = tied[np.lexsort((x[tied], y[tied], np.maximum(x[tied], y[tied])))[0]]
-            key = (1.0 + float(metric[j]), float(max(x[j], y[j])), y[j], x[j])
-        if best is None or key < best[0]:
-            best = (key, q, int(x[j]), int(y[j]))
+        found = _best_in(f, w, h, ex, ey, aspect, rule)
+        if found is not None and (best is None or found[0] < best[0]):
+            best = (found[0], q, found[1], found[2])
     if best is None:  # (positions beside the cells taken are always free)
         raise AssertionError("packing: no free position")
     return best[1], best[2], best[3]
 
 
-def _free_positions(region: np.ndarray, poses: list[np.ndarray]) -> list[np.ndarray]:
-    """Per pose (mask), the map of its lower-left cells where it takes no cell ``region``
-    takes (empty where it does not fit): one FFT of the region, one of all the poses and
-    one back, for every position at once."""
-    ay, ax = region.shape
-    shapes = [(max(ay - m.shape[0] + 1, 0), max(ax - m.shape[1] + 1, 0)) for m in poses]
-    if not region.any():
-        return [np.ones(s if min(s) > 0 else (0, 0), dtype=bool) for s in shapes]
-    fits = [j for j, s in enumerate(shapes) if min(s) > 0]
-    shape = (scipy.fft.next_fast_len(ay, real=True), scipy.fft.next_fast_len(ax, real=True))
-    stack = np.zeros((len(fits), *shape), dtype=np.float32)
-    for k, j in enumerate(fits):
-        stack[k, : poses[j].shape[0], : poses[j].shape[1]] = poses[j]
+def _best_in(f: np.ndarray, w: int, h: int, ex: int, ey: int, aspect: float, rule: str):
+    """The key (as :func:`_best_box` ranks positions) and lower-left cell of the best free
+    position of one shape of ``w`` x ``h`` cells, ``f`` its map of free lower-left cells;
+    None where it fits nowhere."""
+    # both rules grow with x along a row: each row's best is its first free cell
+    first = f.argmax(axis=1)  # (0 in a row with none: told apart by the cell itself)
+    y = np.flatnonzero(f[np.arange(len(f)), first]) if f.size else np.zeros(0, dtype=np.int64)
+    if not len(y):
+        return None
+    x = first[y]
+    inner = (x + w <= ex) & (y + h <= ey)
+    if rule == "square" and inner.any():
+        x, y = x[inner], y[inner]
+    if rule == "corner" or inner.any():
+        reach = np.maximum(x, y) if rule == "square" else np.maximum((x + w) / aspect, y + h)
+        j = np.lexsort((x, y, reach))[0]
+        key = (0.0 if rule == "square" else float(reach[j]), float(reach[j]), int(y[j]), int(x[j]))
+    else:
+        wide, high = np.maximum(ex, x + w), np.maximum(ey, y + h)
+        square = np.maximum(wide / aspect, high)
+        metric = square * square + wide * high / aspect
+        tied = np.flatnonzero(metric == metric.min())
+        j = tied[np.lexsort((x[tied], y[tied], np.maximum(x[tied], y[tied])))[0]]
+        key = (1.0 + float(metric[j]), float(max(x[j], y[j])), int(y[j]), int(x[j]))
+    return key, int(x[j]), int(y[j])
+
+
+def _free_maps(regions: list[np.ndarray], poses: list[np.ndarray], wanted: list[list[int]] | None):
+    """Per region and pose (mask), the map of the pose's lower-left cells where it takes no
+    cell the region takes; empty where it does not fit, or is not ``wanted`` (per region,
+    pose numbers; None: all). One FFT of each region, one of every pose wanted (shared by
+    the regions: one transform size for all) and one back per region and pose, for every
+    position at once."""
+    free = [[np.zeros((0, 0), dtype=bool) for _ in poses] for _ in regions]
+    twin = [_twin(regions, wanted, r) for r in range(len(regions))]  # (the rules agree so far)
+    todo = []
+    for r, region in enumerate(regions):
+        if twin[r] < r:
+            continue
+        ay, ax = region.shape
+        for j in range(len(poses)) if wanted is None else wanted[r]:
+            sy, sx = ay - poses[j].shape[0] + 1, ax - poses[j].shape[1] + 1
+            if min(sy, sx) <= 0:
+                continue
+            if region.any():
+                todo.append((r, j, sy, sx))
+            else:
+                free[r][j] = np.ones((sy, sx), dtype=bool)
+    if not todo:
+        return [free[t] for t in twin]
+    used = sorted({j for _, j, _, _ in todo})
+    at = {j: i for i, j in enumerate(used)}
+    busy = sorted({r for r, _, _, _ in todo})
+    shape = tuple(scipy.fft.next_fast_len(max(regions[r].shape[d] for r in busy), real=True) for d in range(2))
+    stack = np.zeros((len(used), *shape), dtype=np.float32)
+    for i, j in enumerate(used):
+        stack[i, : poses[j].shape[0], : poses[j].shape[1]] = poses[j]
     spectra = np.conj(scipy.fft.rfft2(stack, workers=_WORKERS))
-    spectra *= scipy.fft.rfft2(region.astype(np.float32), s=shape)[None]
-    hits = scipy.fft.irfft2(spectra, s=shape, workers=_WORKERS)
-    free = [np.zeros((0, 0), dtype=bool) for _ in poses]
-    for k, j in enumerate(fits):
-        free[j] = hits[k, : shapes[j][0], : shapes[j][1]] < 0.5
-    return free
+    for r in busy:
+        mine = [(j, sy, sx) for r2, j, sy, sx in todo if r2 == r]
+        product = spectra[[at[j] for j, _, _ in mine]]
+        product *= scipy.fft.rfft2(regions[r].astype(np.float32), s=shape)[None]
+        hits = scipy.fft.irfft2(product, s=shape, workers=_WORKERS)
+        for k, (j, sy, sx) in enumerate(mine):
+            free[r][j] = hits[k, :sy, :sx] < 0.5
+    return [free[t] for t in twin]
+
+
+def _twin(regions: list[np.ndarray], wanted: list[list[int]] | None, r: int) -> int:
+    """The first region whose free maps are region ``r``'s: the same cells, the same poses
+    wanted."""
+    for t in range(r):
+        same_poses = wanted is None or wanted[t] == wanted[r]
+        if same_poses and regions[t].shape == regions[r].shape and np.array_equal(regions[t], regions[r]):
+            return t
+    return r
 
 
 def _best_pose(free: list[np.ndarray], poses: list[np.ndarray], ex: int, ey: int, aspect: float, rule: str):
