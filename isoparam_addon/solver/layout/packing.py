@@ -690,11 +690,12 @@ def _free_maps(regions: list[np.ndarray], poses: list[np.ndarray], wanted: list[
         if twin[r] < r:
             continue
         ay, ax = region.shape
+        taken = region.any()
         for j in range(len(poses)) if wanted is None else wanted[r]:
             sy, sx = ay - poses[j].shape[0] + 1, ax - poses[j].shape[1] + 1
             if min(sy, sx) <= 0:
                 continue
-            if region.any():
+            if taken:
                 todo.append((r, j, sy, sx))
             else:
                 free[r][j] = np.ones((sy, sx), dtype=bool)
