@@ -279,3 +279,16 @@ def test_a_pose_that_fits_on_the_coarse_cells_fits_at_full_resolution(rng):
         ys, xs = np.nonzero(coarse)
         assert len(ys) > 20
         assert fine[2 * ys, 2 * xs].all()
+
+
+def test_the_screen_keeps_a_pose_that_fits_only_at_the_regions_edge():
+    # a 5 x 5 island placed, the region reaches 5 cells beyond it: a 5 x 5 pose fits only
+    # in the last 5 rows or columns, which the coarse cells of an odd side would lose;
+    # the poses that fit nowhere rank last, so the one that fits is kept
+    lay = packing._Layout("square", np.zeros((20, 20), np.float32), *(np.zeros(k, np.int64) for k in ((1, 2), 1, 1)))
+    lay.take(0, 0, 0, np.ones((5, 5), dtype=bool), 0, 0)
+    region = lay.region(5)
+    poses = [np.ones((7, 7), dtype=bool)] * 8 + [np.ones((5, 5), dtype=bool)]
+    assert packing._free_maps([region], poses, None)[0][8].any()
+    (kept,) = packing._screened([region], poses, [lay], 1.0)
+    assert 8 in kept

@@ -506,6 +506,8 @@ class _Layout:
         return self.grid[: min(self.ey + reach, self.grid.shape[0]), : min(self.ex + reach, self.grid.shape[1])]
 
     def take(self, u: int, x: int, y: int, mask: np.ndarray, shape: int, turn: int) -> None:
+        """Unit ``u`` placed with its lower-left cell at (``x``, ``y``): the cells of
+        ``mask`` (its ``shape`` in its quarter ``turn``) taken."""
         h, w = mask.shape
         self.grid[y : y + h, x : x + w] += mask
         self.ex, self.ey = max(self.ex, x + w), max(self.ey, y + h)
@@ -515,7 +517,8 @@ class _Layout:
 def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float) -> list[_Layout]:
     """Place the units, largest first, each in the best of its shapes (``choices``: mask
     numbers per unit) and their quarter turns, by every rule of ``_RULES`` side by side:
-    a unit's poses are transformed once for all the rules' layouts."""
+    a unit's poses are transformed once for all the rules' layouts. Returns the layouts,
+    one per rule, in the order of ``_RULES``."""
     k = len(choices)
     cells = np.array([masks[c[0]].sum() for c in choices])
     order = np.lexsort((np.arange(k), -cells))
@@ -535,7 +538,8 @@ def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float) -> 
         progress.tick(done / max(k, 1))
         poses = [(c, q, m) for c in choices[u] for q, m in enumerate(_turned_masks(masks[c]))]
         tried = [m for _, _, m in poses]
-        regions = [lay.region(max(max(masks[c].shape) for c in choices[u])) for lay in layouts]
+        reach = max(max(masks[c].shape) for c in choices[u])
+        regions = [lay.region(reach) for lay in layouts]
         free = _free_maps(regions, tried, _screened(regions, tried, layouts, aspect))
         for lay, f in zip(layouts, free):
             i, x, y = _best_pose(f, tried, lay.ex, lay.ey, aspect, lay.rule)
@@ -560,8 +564,11 @@ def _screened(regions: list[np.ndarray], poses: list[np.ndarray], layouts: list[
     if len(poses) <= _SCREENED or not any(r.any() for r in regions):
         return [every for _ in regions]
     coarse = [_pooled(m) for m in poses]
+    # (two free rows and columns beyond the region, as in the grid: a region of an odd
+    # side would otherwise lose its last, free, row or column to the coarse cells)
+    pooled = [_pooled(np.pad(r > 0, ((0, 2), (0, 2)))) for r in regions]
     kept = []
-    for lay, region, free in zip(layouts, regions, _free_maps([_pooled(r) for r in regions], coarse, None)):
+    for lay, region, free in zip(layouts, regions, _free_maps(pooled, coarse, None)):
         if not region.any():
             kept.append(every)
             continue
@@ -654,9 +661,11 @@ def _best_in(f: np.ndarray, w: int, h: int, ex: int, ey: int, aspect: float, rul
     """The key (as :func:`_best_box` ranks positions) and lower-left cell of the best free
     position of one shape of ``w`` x ``h`` cells, ``f`` its map of free lower-left cells;
     None where it fits nowhere."""
+    if not f.size:
+        return None
     # both rules grow with x along a row: each row's best is its first free cell
     first = f.argmax(axis=1)  # (0 in a row with none: told apart by the cell itself)
-    y = np.flatnonzero(f[np.arange(len(f)), first]) if f.size else np.zeros(0, dtype=np.int64)
+    y = np.flatnonzero(f[np.arange(len(f)), first])
     if not len(y):
         return None
     x = first[y]
@@ -731,7 +740,8 @@ def _twin(regions: list[np.ndarray], wanted: list[list[int]] | None, r: int) -> 
 
 def _best_pose(free: list[np.ndarray], poses: list[np.ndarray], ex: int, ey: int, aspect: float, rule: str):
     """The pose (index into ``poses``, masks) and lower-left cell of the best free
-    position, ``free`` being :func:`_free_positions`' maps, as :func:`_best_box` ranks them."""
+    position, ``free`` being one region's maps of :func:`_free_maps` (empty for the poses
+    not tried there or that fit nowhere), as :func:`_best_box` ranks them."""
     fits = [i for i, f in enumerate(free) if f.size]
     q, x, y = _best_box([free[i] for i in fits], [poses[i].shape[::-1] for i in fits], ex, ey, aspect, rule)
     return fits[q], x, y
