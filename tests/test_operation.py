@@ -155,3 +155,17 @@ def test_the_record_reads_back_from_json(pixels):
     record = RunRecord(finished=True, coverage=0.5, pack=0.01 * pixels)
     record.report("INFO", "words")
     assert RunRecord.from_json(record.to_json()) == record
+
+
+def test_a_pack_margin_too_wide_for_the_islands_is_reported():
+    # 300 separate triangles, 0.1 of the square between each two: the gaps alone would
+    # need about three squares, so Fill Shapes keeps what it can and the run says so
+    rng = np.random.default_rng(5)
+    V = (rng.uniform(0, 1, (300, 1, 3)) + np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0]])[None]).reshape(-1, 3)
+    F = np.arange(900).reshape(300, 3)
+    record = RunRecord()
+    outcome = solve_all([Input(None, _selection(V, F), None)], OperatorOptions(margin=0.05), _go_on, record)
+    assert outcome.ok and outcome.packed and outcome.solved[0].n_islands == 300
+    assert any("pack margin 0.05 is too wide for 300 islands" in w for w in outcome.solved[0].warnings)
+    kept = solve_all([Input(None, _selection(V, F), None)], OperatorOptions(margin=0.01), _go_on, RunRecord())
+    assert not any("pack margin" in w for w in kept.solved[0].warnings)

@@ -292,3 +292,17 @@ def test_the_screen_keeps_a_pose_that_fits_only_at_the_regions_edge():
     assert packing._free_maps([region], poses, None)[0][8].any()
     (kept,) = packing._screened([region], poses, [lay], 1.0)
     assert 8 in kept
+
+
+def test_a_wide_margin_is_kept_where_it_fits_and_reported_where_it_cannot():
+    # 600 islands: gaps of 0.02 fit in the square (the gaps alone need about 600 * 0.02^2
+    # of it), so they are kept; gaps of 0.06 cannot be (600 * 0.06^2 > 1), and the
+    # packing says how much of them it kept instead of hiding it
+    uv, island, k = _many_islands(600, seed=3)
+    kept = packing.pack_layout(uv, island, k, margin=0.01)
+    assert kept.gap_kept == 1.0
+    assert least_gap(kept.uv, island, spacing=0.005) >= 0.02 * (1 - 1e-9)
+    short = packing.pack_layout(uv, island, k, margin=0.03)
+    assert 0.0 < short.gap_kept < 1.0
+    assert least_gap(short.uv, island, spacing=0.015) >= 0.06 * short.gap_kept * (1 - 1e-6)
+    assert islands_overlapping(short.uv, island) == 0

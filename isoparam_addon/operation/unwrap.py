@@ -289,6 +289,12 @@ def pack_together(solved: list[Solved], opts: OperatorOptions) -> None:
     start = np.cumsum([0] + [len(s.corner_uv) for s in solved])
     for s, a, b in zip(solved, start, start[1:]):
         s.corner_uv = packed.uv[a:b]
+    if packed.gap_kept < 1.0 - 1e-6:  # (said once, with the first mesh's words)
+        gap = 2.0 * opts.pack_margin
+        solved[0].warnings.append(
+            f"the pack margin {opts.pack_margin:g} is too wide for {int(offsets[-1])} islands: they end "
+            f"{gap * packed.gap_kept:.3g} apart, not {gap:g} (a smaller margin keeps it)"
+        )
 
 
 def report(solved: list[Solved], record: RunRecord) -> None:

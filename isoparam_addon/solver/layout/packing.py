@@ -60,6 +60,8 @@ _RULES = ("square", "corner")  # the placement rules tried (:func:`_best_box`)
 _WORKERS = 2  # threads for the FFTs of many poses at once (results do not depend on it)
 _SCREENED = 8  # islands tried in more poses than this are screened on a grid twice as coarse
 _SCREEN = 4  # ... and only their best poses there are placed at full resolution
+_TRIES = 6  # packings at most, each with a gap guessed from the last (:func:`_next_guess`)
+_PAD_CELLS = 2  # the pad (half the gap between islands) spans at most this many cells
 _ANGLES = 16  # first search for the tightest box, over a quarter turn; then refined
 
 
@@ -75,11 +77,16 @@ class Packing:
         The raster's cell (the large islands'), as a share of the square's side.
     shaped : int
         Islands placed by their shapes (the rest by their boxes).
+    gap_kept : float
+        The share of the gap asked (``2 * margin``) that the islands keep at least: 1
+        where it is kept, less where the margin is too wide for so many islands (the
+        gaps alone would need more than the square).
     """
 
     uv: np.ndarray
     cell: float
     shaped: int
+    gap_kept: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -130,24 +137,44 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
     cell = max(np.sqrt(room), 0.5 * float(frames[1].size.max(initial=0.0))) / _CELLS
     # the gap in layout units follows the side the layout ends up with: guessed, then
     # checked against the side packed, and packed again wider if it was short
-    side = np.sqrt(room / 0.5) / (1.0 - 2.0 * margin)
+    guess = np.sqrt(room / 0.5) / (1.0 - 2.0 * margin)
+    tried: list[tuple[float, float]] = []  # (side guessed, side packed)
     with progress.stage("packing", 0.0, 1.0):
-        for _ in range(4):
-            gap = 2.0 * margin * side * max(aspect, 1.0)
-            placed, shaped = _pack_units(flat, corners, outline, frames, cell, 0.5 * gap, aspect)
+        for _ in range(_TRIES):
+            gap = 2.0 * margin * guess * max(aspect, 1.0)
+            # (a margin wide against the islands sets the cell: a pad of many cells would
+            # spread the boxes' grid over thousands of cells for gaps)
+            grid_cell = max(cell, 0.5 * gap / _PAD_CELLS)
+            placed, shaped = _pack_units(flat, corners, outline, frames, grid_cell, 0.5 * gap, aspect)
             placed = _squarest(placed, rim, aspect)
             lo = placed.min(axis=0)
             ext = placed.max(axis=0) - lo
             side = max(ext[0] / aspect, ext[1], TINY) / (1.0 - 2.0 * margin)
             if 2.0 * margin * side * max(aspect, 1.0) <= gap * (1 + 1e-9):
                 break
-            side *= 1.02
+            tried.append((guess, side))
+            guess = _next_guess(tried)
         out = np.empty_like(flat)
         out[:, 0] = margin + (placed[:, 0] - lo[0]) / (aspect * side)
         out[:, 1] = margin + (placed[:, 1] - lo[1]) / side
     result = np.empty_like(uv)
     result[order] = out.reshape(-1, 3, 2)
-    return Packing(result, cell / side, shaped)
+    short = 2.0 * margin * side * max(aspect, 1.0)
+    return Packing(result, grid_cell / side, shaped, min(1.0, gap / short) if short > 0 else 1.0)
+
+
+def _next_guess(tried: list[tuple[float, float]]) -> float:
+    """The side to guess the gap from after the tries ``tried`` ((side guessed, side
+    packed), the last one short): 2% above the side packed, or, where the side packed
+    grows with the side guessed slower than it (a wide margin: the gaps make the side),
+    2% above where the line through the last two tries meets the side guessed."""
+    guessed, packed = tried[-1]
+    nxt = 1.02 * packed
+    if len(tried) > 1 and tried[-2][0] != guessed:
+        slope = (packed - tried[-2][1]) / (guessed - tried[-2][0])
+        if 0.0 <= slope < 0.9:
+            nxt = max(nxt, 1.02 * (packed - slope * guessed) / (1.0 - slope))
+    return nxt
 
 
 def _squarest(points: np.ndarray, rim: np.ndarray, aspect: float) -> np.ndarray:
