@@ -83,11 +83,12 @@ _BAND = 0.1  # a cell boundary moves where its two seeds' distances differ by le
 _GRID = 64  # the log area ratios that place cuts are rounded to 1 / _GRID
 _FOLDING = 4.0  # a slit along edges whose banks the prediction folds over each other costs this much more
 _FEWEST = 64  # a chart of fewer faces is not cut further ...
-_CHIP = 0.05  # ... and one of fewer faces and this share of its island is a chip, joined to a neighbour
+_CHIP = 0.02  # ... and one of fewer faces and this share of its island is a chip, joined to a neighbour
 _CHECKS = 2  # solves after the first: where the charts are still over the budget as refined
 _FIRST_AIM = 1.25  # before the solve, the prediction is taken to stretch this much more (it underestimates) ...
 _AIM = 1.25  # ... and after it, this much more than the refinement showed (a check's cuts are the last)
 _MOST_SCALE = 100.0  # a refined island is taken to stretch at most this many times its prediction
+_CONE = 1.0  # angle defects are counted in these (radians), rounded: short of half of one, no cone
 _TIE = 1e-9  # distances this close (relative) are equal: the lowest-numbered face is the seed
 
 
@@ -675,7 +676,7 @@ def _slits(
         w = np.where(opening[use] < 0.0, _FOLDING * w, w)
     w = w + 1e-12 * max(float(w.max(initial=0.0)), TINY)  # csgraph drops zeros
     G = sp.coo_matrix((w, (a, b)), shape=(n, n)).tocsr()
-    target = F[faces, 0]
+    target = _tip_corner(result.vertices, F, faces, boundary)
     reached = ~boundary[target]
     if not reached.any():
         return none
@@ -704,6 +705,20 @@ def _slits(
     if not keep.any():
         return none
     return np.unique(np.sort(edges[keep], axis=1), axis=0), np.unique(result.face_island[slit_faces])
+
+
+def _tip_corner(V: np.ndarray, F: np.ndarray, faces: np.ndarray, boundary: np.ndarray) -> np.ndarray:
+    """Per face of ``faces`` (k,), the vertex a slit to it ends at: the corner of sharpest
+    cone, its angle defect rounded to whole ``_CONE``s, where a vertex short of half of
+    one, or on the charts' ``boundary`` (n,) bool, is no cone; ties (as on a smooth
+    surface) go to the first corner. On a coarse mesh the curvature a chart cannot flatten sits at a
+    few sharp vertices (a low-poly ear's tip); a slit opens such a cone only if it ends
+    at its apex."""
+    corners = F[faces]
+    angle, _, _ = corner_angles(V, F)
+    defect = 2.0 * np.pi - np.bincount(F.ravel(), angle.ravel(), minlength=len(V))
+    sharp = np.where(boundary[corners], 0.0, np.floor(defect[corners] / _CONE + 0.5))
+    return corners[np.arange(len(faces)), np.argmax(sharp, axis=1)]
 
 
 def _opening(edges, slit_of, step, n_slits: int, graph_edges, opening, n: int) -> np.ndarray:
