@@ -21,9 +21,10 @@ the layout needs it. Here, in that second spirit, the cuts are decided, then ref
    stretch and squeeze them), and while an island is predicted beyond the budget, the
    charts that hold most of its excess are cut: where a chart squeezes a cap beyond the
    budget (a tip, a bump, the end of a limb), a slit from its border to the most
-   squeezed place lets the cap open like a cone cut along a ruling, along edges the
-   prediction pulls apart; elsewhere a minimum cut parts a ball around its most squeezed
-   face from one around its most stretched. A round costs a prediction, not a solve.
+   squeezed place (its sharpest vertex, on a coarse mesh) lets the cap open like a cone
+   cut along a ruling, along edges the prediction pulls apart; elsewhere a minimum cut
+   parts a ball around its most squeezed face from one around its most stretched. A
+   round costs a prediction, not a solve.
 3. **Solve** the mesh once with those cuts as seams. The refinement keeps every chart's
    boundary from crossing itself (:mod:`.contact`), so slits do not fold over.
 4. **Check.** An island still beyond the budget as refined is cut again as in 2, its
@@ -302,7 +303,7 @@ class _Charts:
     ratio: np.ndarray  # (m,) per face, log area ratio, smoothed and rounded (see _smoothed)
 
 
-def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: float, opening=None, slit=True):
+def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: float, opening=None):
     """The cuts of one round (k, 2 vertex pairs) and the charts they cut: in every island
     whose charts stretch more than ``budget`` on average, the charts holding ``_COVER``
     of its excess, each slit to every cap it squeezes beyond the budget (:func:`_slits`),
@@ -335,7 +336,6 @@ def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: floa
     # every region the layout squeezes beyond the budget is a cap to let open: a slit to
     # its most squeezed face
     tips = _tips(graph, on & (ratio < -2.0 * np.log(budget)), ratio)
-    tips = tips[np.broadcast_to(slit, (n_owners,))[owner[charts.face_island[tips]]]]
     keep = on[graph.f] & on[graph.g]
     slit, slitted = _slits(charts, graph.among(on), tips, ratio, None if opening is None else opening[keep])
     rest = unique_sorted(chosen)
@@ -382,7 +382,7 @@ def _checked_cuts(result: Parametrization, problem: Problem, owners: _Owners, op
     new, split = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
     if len(over):
         seams = np.vstack([pairs(problem.seams), result.cut_edges])
-        new, _ = _placed_cuts(problem, options, seams, owners, over, measured, slit=False)
+        new, _ = _placed_cuts(problem, options, seams, owners, over, measured)
         split = unique_sorted(result.face_island[np.isin(owners.face, over)])
     tick()
     overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
@@ -404,14 +404,12 @@ def _placed_cuts(
     owners: _Owners,
     which: np.ndarray | None = None,
     measured: np.ndarray | None = None,
-    slit: bool = True,
 ):
     """The cuts (k, 2 vertex pairs) that bring the charted islands ``which`` (of
     ``owners``; all by default) within the budget as predicted (:mod:`.stress`), and
     the islands they cut. ``measured`` (per island of ``owners``): the energy per area
     above isometric its charts were refined to, if they were; the prediction of each island is scaled to
     it (a linear prediction misses what large strains and banks pressed together add).
-    ``slit``: cuts may be slits.
 
     Rounds as after a solve (:func:`_stretch_cuts`), but each reads the linear prediction
     of the charts cut along ``seams`` and the cuts so far, where a round after a solve
@@ -446,7 +444,7 @@ def _placed_cuts(
         energy = 4.0 + safe_divide(excess, prediction.area)
         laid = _Charts(base.V, base.F, charts.face_chart, charts.n, energy, prediction.area, owner, ratio)
         opening = stress.normal_stress(X, split_faces, prediction.phi, ends)
-        new, split = _stretch_cuts(laid, graph, n_owners, options.max_stretch, opening, slit)
+        new, split = _stretch_cuts(laid, graph, n_owners, options.max_stretch, opening)
         if not len(new):
             break
         cuts = np.vstack([cuts, new])
