@@ -139,16 +139,17 @@ def test_a_slit_ends_at_the_sharpest_cone_of_its_tip_face():
     # a low-poly tip: a fan of four faces round a vertex whose angles sum to well short of
     # 2 pi (a pyramid's apex); the slit's tip face has the apex as its last corner
     from isoparam_addon.solver.charting.charts import _tip_corner
+    from isoparam_addon.solver.geometry import angle_defects
 
     V = np.array([[0, 0, 1.0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]])
     F = np.array([[1, 2, 0], [2, 3, 0], [3, 4, 0], [4, 1, 0]])
     rim = np.array([False, True, True, True, True])
-    assert _tip_corner(V, F, np.array([0, 2]), rim).tolist() == [0, 0]  # the apex, defect 2 pi - 4 (pi / 3)
+    tips = np.array([0, 2])
+    assert _tip_corner(F, tips, angle_defects(V, F), rim).tolist() == [0, 0]  # the apex, defect 2 pi - 4 (pi / 3)
     # the rim's corners are no cones (their "defect" is the boundary's turning), and a
     # flat apex is none either: ties go to the first corner, as before cones were read
-    V_flat = V * [1, 1, 0]
-    assert _tip_corner(V_flat, F, np.array([0, 2]), rim).tolist() == [1, 3]
-    assert _tip_corner(V, F, np.array([0]), np.ones(5, dtype=bool)).tolist() == [1]
+    assert _tip_corner(F, tips, angle_defects(V * [1, 1, 0], F), rim).tolist() == [1, 3]
+    assert _tip_corner(F, np.array([0]), angle_defects(V, F), np.ones(5, dtype=bool)).tolist() == [1]
 
 
 def test_a_coarse_ball_with_sharp_spikes_is_charted_within_budget():

@@ -37,6 +37,7 @@ __all__ = [
     "face_areas",
     "edge_lengths",
     "corner_angles",
+    "angle_defects",
 ]
 
 # the floor of a scale that must stay positive (a relative threshold of a zero scale would
@@ -252,6 +253,19 @@ def corner_angles(X: np.ndarray, faces: np.ndarray):
         points = [np.stack([x[c[sl]] for x in columns], axis=1) for c in corner]
         angle[sl], length[sl] = _angles_and_lengths(points)
     return angle.ravel(), length.ravel(), length[:, PREV].ravel()
+
+
+def angle_defects(X: np.ndarray, faces: np.ndarray, vertex: np.ndarray | None = None, n: int | None = None):
+    """Per vertex (n,), its angle defect ``2 pi - sum of its corners' angles`` (the
+    discrete Gaussian curvature of an interior vertex) over the triangles ``faces`` (m, 3)
+    of ``X``. ``vertex`` (len(X),): the vertex each row of ``X`` is a copy of (split
+    vertices summed at their mesh vertex; default: each its own), ``n`` the vertices
+    counted (default: as many as rows of ``X``, or ``vertex.max() + 1``)."""
+    angle, _, _ = corner_angles(X, faces)
+    corner = faces.ravel() if vertex is None else vertex[faces.ravel()]
+    if n is None:
+        n = len(X) if vertex is None else int(vertex.max(initial=-1)) + 1
+    return 2.0 * np.pi - np.bincount(corner, angle, minlength=n)
 
 
 def _angles_and_lengths(points: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

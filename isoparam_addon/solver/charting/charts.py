@@ -56,7 +56,7 @@ from scipy.sparse import csgraph
 
 from .. import metrics
 from ..errors import counted
-from ..geometry import TINY, corner_angles, corner_signed_areas, face_areas, safe_divide
+from ..geometry import TINY, angle_defects, face_areas, safe_divide
 from ..mesh.halfedges import HalfEdges, edge_mask, pair_keys, split, unique_edges, unique_sorted, unit_of
 from ..mesh.islands import first_rows
 from ..mesh.ordering import nested_dissection
@@ -196,10 +196,9 @@ def _curvature(V: np.ndarray, topo: Topology) -> np.ndarray:
     that opened it do not count as boundary): 4 pi for a closed surface of genus 0, less
     the turning of its boundary for one with holes; 0 for a torus, about 0 for a tube or
     a height field."""
-    angle, _, _ = corner_angles(V[topo.vertex_of], topo.faces)
     corner = topo.vertex_of[topo.faces.ravel()]  # the mesh vertex of every corner
     n = len(V)
-    defect = 2.0 * np.pi - np.bincount(corner, angle, minlength=n)
+    defect = angle_defects(V[topo.vertex_of], topo.faces, topo.vertex_of, n)
     h = np.flatnonzero(topo.he.twin < 0)  # boundary, seams and cuts
     ends = np.sort(topo.vertex_of[np.stack([topo.faces[h // 3, h % 3], topo.faces[h // 3, (h + 1) % 3]], 1)], 1)
     cut = np.sort(topo.cut_edges, axis=1)
@@ -301,6 +300,7 @@ class _Charts:
     area: np.ndarray  # (k,) per chart, 3D area (0: not to judge)
     owner: np.ndarray  # (k,) per chart, the island (of ``_Owners``) it was cut from
     ratio: np.ndarray  # (m,) per face, log area ratio, smoothed and rounded (see _smoothed)
+    defect: np.ndarray  # (n,) per vertex, its angle defect over all its faces (a cone's sharpness)
 
 
 def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: float, opening=None):
@@ -347,20 +347,6 @@ def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: floa
         cuts.append(without_chips(inside, minimum_cut(inside, source, sink), centres))
     cut = np.vstack(cuts)
     return (cut, chosen) if len(cut) else none
-
-
-def _laid_out(result: Parametrization, owners: _Owners, graph: FaceGraph) -> _Charts:
-    """The charts of ``result`` as its layout distorts them."""
-    energy, area, owner = _chart_energy(result, owners)
-    V, F, isl = result.vertices, result.faces, result.face_island
-    a3 = face_areas(V, F)
-    a2 = np.abs(corner_signed_areas(result.corner_uv))
-    A3 = np.bincount(isl, a3, minlength=result.n_islands)
-    A2 = np.bincount(isl, a2, minlength=result.n_islands)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.log(np.maximum(a2, TINY) / np.maximum(a3, TINY)) - np.log(A2 / A3)[isl]
-    ratio = np.where(np.isfinite(ratio), ratio, 0.0)
-    return _Charts(V, F, isl, result.n_islands, energy, area, owner, _smoothed(graph, ratio, a3))
 
 
 def _checked_cuts(result: Parametrization, problem: Problem, owners: _Owners, options: Options):
@@ -442,7 +428,7 @@ def _placed_cuts(
             scale = _AIM * np.clip(safe_divide(measured, predicted, 1.0), 1.0, _MOST_SCALE)
         excess = prediction.excess * (_FIRST_AIM if scale is None else scale[owner])
         energy = 4.0 + safe_divide(excess, prediction.area)
-        laid = _Charts(base.V, base.F, charts.face_chart, charts.n, energy, prediction.area, owner, ratio)
+        laid = _Charts(base.V, base.F, charts.face_chart, charts.n, energy, prediction.area, owner, ratio, base.defect)
         opening = stress.normal_stress(X, split_faces, prediction.phi, ends)
         new, split = _stretch_cuts(laid, graph, n_owners, options.max_stretch, opening)
         if not len(new):
@@ -507,6 +493,7 @@ class _Base:
     graph: FaceGraph  # the faces' adjacency across the seams and the topology's cuts
     rank: np.ndarray  # (n,) each sub-problem vertex's place in a nested-dissection order
     area: np.ndarray  # (m,) 3D areas
+    defect: np.ndarray  # (n,) each sub-problem vertex's angle defect (:func:`_tip_corner`)
 
     @classmethod
     def of(cls, sub: Problem, options: Options) -> _Base:
@@ -520,7 +507,20 @@ class _Base:
         corner = np.argmax(topo.faces[:, :, None] == topo.corner_vertex[:, None, :], axis=1)
         graph = face_graph(V, F, topo.face_island, np.vstack([pairs(sub.seams), topo.cut_edges]), sub.inner_edges)
         X = V[topo.vertex_of] / unit
-        return cls(V, F, X, topo.faces, topo.he, topo.vertex_of, edge_keys, corner, graph, rank, face_areas(V, F))
+        return cls(
+            V,
+            F,
+            X,
+            topo.faces,
+            topo.he,
+            topo.vertex_of,
+            edge_keys,
+            corner,
+            graph,
+            rank,
+            face_areas(V, F),
+            angle_defects(V, F),
+        )
 
     def cut(self, cuts: np.ndarray):
         """The charts cut further along ``cuts`` (k, 2 sub-problem vertex pairs), their
@@ -674,7 +674,7 @@ def _slits(
         w = np.where(opening[use] < 0.0, _FOLDING * w, w)
     w = w + 1e-12 * max(float(w.max(initial=0.0)), TINY)  # csgraph drops zeros
     G = sp.coo_matrix((w, (a, b)), shape=(n, n)).tocsr()
-    target = _tip_corner(result.vertices, F, faces, boundary)
+    target = _tip_corner(F, faces, result.defect, boundary)
     reached = ~boundary[target]
     if not reached.any():
         return none
@@ -705,16 +705,14 @@ def _slits(
     return np.unique(np.sort(edges[keep], axis=1), axis=0), np.unique(result.face_island[slit_faces])
 
 
-def _tip_corner(V: np.ndarray, F: np.ndarray, faces: np.ndarray, boundary: np.ndarray) -> np.ndarray:
-    """Per face of ``faces`` (k,), the vertex a slit to it ends at: the corner of sharpest
-    cone, its angle defect rounded to whole ``_CONE``s, where a vertex short of half of
-    one, or on the charts' ``boundary`` (n,) bool, is no cone; ties (as on a smooth
-    surface) go to the first corner. On a coarse mesh the curvature a chart cannot flatten sits at a
-    few sharp vertices (a low-poly ear's tip); a slit opens such a cone only if it ends
-    at its apex."""
+def _tip_corner(F: np.ndarray, faces: np.ndarray, defect: np.ndarray, boundary: np.ndarray) -> np.ndarray:
+    """Per face of ``faces`` (k,) (rows of ``F`` (m, 3)), the vertex a slit to it ends at:
+    the corner of sharpest cone, its angle ``defect`` (n,) rounded to whole ``_CONE``s,
+    where a vertex short of half of one, or on the charts' ``boundary`` (n,) bool, is no
+    cone; ties (as on a smooth surface) go to the first corner. On a coarse mesh the
+    curvature a chart cannot flatten sits at a few sharp vertices (a low-poly ear's tip);
+    a slit opens such a cone only if it ends at its apex."""
     corners = F[faces]
-    angle, _, _ = corner_angles(V, F)
-    defect = 2.0 * np.pi - np.bincount(F.ravel(), angle.ravel(), minlength=len(V))
     sharp = np.where(boundary[corners], 0.0, np.floor(defect[corners] / _CONE + 0.5))
     return corners[np.arange(len(faces)), np.argmax(sharp, axis=1)]
 

@@ -43,7 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from ..geometry import corner_angles, safe_divide
+from ..geometry import angle_defects, safe_divide
 from ..refinement.per_face import FaceFrames
 
 __all__ = ["Prediction", "normal_stress", "predict"]
@@ -97,8 +97,7 @@ def predict(
     frames = FaceFrames(X, faces)
     L = frames.laplacian()
     mass = np.bincount(faces.ravel(), np.repeat(frames.area / 3.0, 3), minlength=n)
-    angle, _, _ = corner_angles(X, faces)
-    defect = np.where(boundary, 0.0, 2.0 * np.pi - np.bincount(faces.ravel(), angle, minlength=n))
+    defect = np.where(boundary, 0.0, angle_defects(X, faces, n=n))
     inner = np.flatnonzero(~boundary & (np.bincount(faces.ravel(), minlength=n) > 0))
     if order is not None:
         rank = np.empty(n, dtype=np.int64)
