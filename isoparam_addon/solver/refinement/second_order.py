@@ -94,7 +94,6 @@ def second_order_proxy(
         and np.array_equal(proxy.live, live)
     ):
         pattern = proxy.pattern
-    proxy = quadratic
     if pattern is None:  # each live face's six coordinates, numbered among ``coords`` (k: pinned)
         local = np.full(2 * n, k, dtype=np.int64)
         local[coords] = np.arange(k)
@@ -106,10 +105,10 @@ def second_order_proxy(
     dx, dy = fr.dx[live], fr.dy[live]
     B[:, 0, 0::2], B[:, 1, 0::2], B[:, 2, 1::2], B[:, 3, 1::2] = dx, dy, dx, dy
     blocks = B.transpose(0, 2, 1) @ P @ B
-    mixed = sp.kron((_MIX * proxy.H + 2.0 * sp.diags(proxy.whisper))[free][:, free], sp.eye(2), format="csr")
+    mixed = sp.kron((_MIX * quadratic.H + 2.0 * sp.diags(quadratic.whisper))[free][:, free], sp.eye(2), format="csr")
     H = pattern.matrix(blocks)[:k, :k] + mixed
     if contact is not None:
         H = H + contact[coords][:, coords]
     H = H.tocsr()
     lu = splu(H.tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0)
-    return SecondOrderProxy(H, coords, lu, proxy, pattern, live)
+    return SecondOrderProxy(H, coords, lu, quadratic, pattern, live)
