@@ -203,6 +203,23 @@ def test_zero_area_island_does_not_give_nan():
     assert np.isfinite(r.uv).all()
 
 
+@pytest.mark.parametrize("corners", [[[5, 5, 0], [6, 5, 0], [7, 5, 0]], [[5, 5, 0], [5, 5, 0], [7, 5, 0]]])
+def test_an_island_with_no_area_keeps_its_lengths_and_is_not_called_far_from_isometric(corners):
+    # found on ogre with Smart UV Project's seams: single faces with no 3D area were
+    # restarted, refined to a sliver of area and reported "far from isometric (distortion
+    # 3.6e6) ... mark seams to cut it", which no seam can do
+    from isoparam_addon.operation.options import DEFAULTS
+
+    V, F = ex.peaks(11)
+    n = len(V)
+    r = parametrize(np.vstack([V, corners]), np.vstack([F, [[n, n + 1, n + 2]]]), options=DEFAULTS.solver_options())
+    assert not [w for w in r.warnings if w.kind is WarningKind.FAR_FROM_ISOMETRIC]
+    uv = r.corner_uv[-1]
+    lengths = np.linalg.norm(np.asarray(corners, dtype=float) - np.roll(corners, -1, axis=0), axis=1)
+    np.testing.assert_allclose(np.linalg.norm(uv - np.roll(uv, -1, axis=0), axis=1), lengths, atol=1e-4)
+    assert not r.flipped.any()
+
+
 @pytest.mark.parametrize("refine", [0, 100])
 def test_islands_collapsed_to_a_point_or_a_line_give_finite_uvs_and_leave_other_islands_alone(refine):
     # all-coincident points made 0/0 weights (NaN in L, then a LinAlgError in Step 3) and

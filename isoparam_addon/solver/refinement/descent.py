@@ -735,10 +735,10 @@ def _set_up(
         x, stuck, out.restarted_conformal, out.restarted_tutte = start_layout(
             X, faces, out.uv, he_twin, islands, proxy.frames, per_face, pinned, order, crossed=crossed
         )
-    # islands that still fold, and islands with nothing free, are left as they are
+    # islands that still fold, with nothing free or with no 3D area are left as they are
     d = _Descent(X, faces, x, islands, pinned, proxy, tol, out, contact)
     d.begin(
-        ~stuck & (np.bincount(islands.label, ~pinned, minlength=k) > 0),
+        ~stuck & (np.bincount(islands.label, ~pinned, minlength=k) > 0) & ~_without_area(proxy.frames, per_face),
         settle=carry is None,
         watched=None if carry is None else carry.watched,
         start=None if carry is None else carry.start,
@@ -750,6 +750,13 @@ def _set_up(
         d.memory, d.history, d.reweighting = carry.memory, carry.history, carry.reweighting
     out.energy += [d.mean_energy(e) for e in d.trace]
     return d
+
+
+def _without_area(frames: FaceFrames, per_face: Labelled) -> np.ndarray:
+    """Per island (n_islands,) bool: every face of it collapsed in 3D. No layout of such an
+    island is more or less isometric than another: it keeps its start, and its energy,
+    which only the faces' stand-in sizes give, is not reported."""
+    return per_face.sum(~frames.degenerate) == 0
 
 
 def _leave_endless(d: _Descent) -> None:
@@ -811,7 +818,8 @@ def _finish(d: _Descent, t0: float) -> Refinement:
     """What the descent ``d`` did, begun at ``t0``."""
     out = d.out
     out.uv = d.x
-    counted = d.live_face | d.per_face.expand(d.settled)  # (islands left as they are: 0)
+    # (islands left as they are: 0; faces with no 3D area are not measured, as in :mod:`.metrics`)
+    counted = (d.live_face | d.per_face.expand(d.settled)) & ~d.frames.degenerate
     out.island_area = d.per_face.sum(np.where(counted, d.area, 0.0))
     with np.errstate(divide="ignore", invalid="ignore"):
         fro, inv, _ = dirichlet_parts(*d.frames.jacobians(d.x))  # from x: a hand-over leaves J behind
