@@ -60,3 +60,34 @@ def test_a_flow_over_a_narrowed_graph_runs_on_the_faces_its_edges_touch(monkeypa
     assert np.array_equal(side[band], mincut._exact_side(alone, source[band], sink[band]))
     assert _separates(narrowed, side, source & band, sink & band)
     assert 0 < side[band].sum() < band.sum()
+
+
+def test_each_island_is_cut_in_its_own_region(monkeypatch):
+    """Two islands in one graph, one to be cut between two discs, one between its two ends:
+    the first region around the ends spans their island and separates them, the one
+    around the discs must grow. The flows after the first run over the discs' island
+    alone, and each island is cut as it is alone."""
+    V, F = ex.peaks(50, z_scale=0.5)
+    m = len(F)
+    both_V, both_F = np.vstack([V, V + [100.0, 0.0, 0.0]]), np.vstack([F, F + len(V)])
+    island = np.repeat([0, 1], m)
+    graph = mincut.face_graph(both_V, both_F, island, np.zeros((0, 2), dtype=np.int64))
+    xy = graph.centroids[:, :2] - [[100.0, 0.0]] * island[:, None]
+    lo, span = xy.min(axis=0), np.ptp(xy, axis=0)
+    discs = (island == 0) & (np.linalg.norm(xy - (lo + 0.3 * span), axis=1) < 0.1 * span[0])
+    sink_discs = (island == 0) & (np.linalg.norm(xy - (lo + 0.7 * span), axis=1) < 0.1 * span[0])
+    ends = (island == 1) & (xy[:, 0] < lo[0] + 0.05 * span[0])
+    sink_ends = (island == 1) & (xy[:, 0] > lo[0] + 0.95 * span[0])
+    source, sink = discs | ends, sink_discs | sink_ends
+    flows = []
+    flow_side = mincut._flow_side
+    monkeypatch.setattr(mincut, "_flow_side", lambda g, s, t: flows.append((g.f, g.g)) or flow_side(g, s, t))
+    side = mincut.source_side(graph, source, sink)
+    assert len(flows) > 1 and all((island[f] == 0).all() and (island[g] == 0).all() for f, g in flows[1:])
+    assert _separates(graph, side, source, sink)
+    for k in (0, 1):
+        mine = island == k
+        index = np.cumsum(mine) - 1
+        alone = graph.among(mine)
+        alone = mincut.FaceGraph(index[alone.f], index[alone.g], alone.edges, alone.cost, graph.centroids[mine])
+        assert np.array_equal(side[mine], mincut.source_side(alone, source[mine], sink[mine])), k

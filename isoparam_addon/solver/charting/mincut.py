@@ -153,8 +153,11 @@ def source_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.nd
 
     On a large graph the flow first runs in a region around the two sets (the faces whose
     distances to both add up to at most ``_REACH`` times the most any source or sink face
-    has), which holds the short cuts between sets that are close; the region doubles until
-    its cut separates every source face from every sink face (at worst, the whole graph).
+    of their component has), which holds the short cuts between sets that are close; the
+    region doubles until its cut separates every source face from every sink face (at
+    worst, the whole component). Each component of the graph (an island) is done when its
+    own cut separates: the next flows run over the components still joined, and a
+    component's cut does not depend on the others'.
     """
     polygon = graph.polygons()
     if polygon is not None:  # a polygon is on one side whole: its source faces claim it
@@ -171,14 +174,21 @@ def source_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.nd
     spread = np.zeros(n_parts)
     np.maximum.at(spread, part[ends], total[ends])
     reach = _REACH
-    while True:
-        region = (total <= reach * spread[part]) | source | sink
-        cut = _flow_side(graph.among(region), source, sink)
+    side = np.zeros(graph.n_faces, dtype=bool)
+    todo = np.ones(n_parts, dtype=bool)  # the components whose cut does not separate yet
+    while todo.any():
+        mine = todo[part]
+        region = ((total <= reach * spread[part]) | source | sink) & mine
+        cut = _flow_side(graph.among(region), source & mine, sink & mine)
+        inside = mine[graph.f]  # (an edge's two faces are of one component)
         crossed = region[graph.f] & region[graph.g] & (cut[graph.f] != cut[graph.g])
-        side = _joined(graph, ~crossed, source)
-        if region.all() or not (side & sink).any():
-            return side
+        joined = _joined(graph, inside & ~crossed, source & mine)
+        whole = np.bincount(part[mine & ~region], minlength=n_parts) == 0
+        done = todo & (whole | (np.bincount(part[joined & sink], minlength=n_parts) == 0))
+        side |= joined & done[part]
+        todo &= ~done
         reach *= 2.0
+    return side
 
 
 def _joined(graph: FaceGraph, keep: np.ndarray, source: np.ndarray) -> np.ndarray:
