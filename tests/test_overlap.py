@@ -50,6 +50,18 @@ def test_faces_overlap_only_with_positive_area():
     assert sorted(zip(i.tolist(), j.tolist())) == [(0, 1), (1, 2)]
 
 
+def test_two_flaps_hinged_at_a_vertex_overlap_with_the_area_they_share():
+    # found on the beast with Smart UV Project's seams: two faces that met at an edge of
+    # four faces (split as a seam) kept one vertex in common and lay one over the other
+    # from it; with no pair of faces found, the repair cut elsewhere for six rounds
+    F = np.array([[0, 1, 2], [0, 3, 4], [0, 5, 6]])
+    uv = np.array([[0, 0], [1, 0], [0.5, 1], [1, 0.2], [0.4, 1.1], [-1, 0], [-0.5, -1]], float)
+    found = overlap.self_overlaps(F, uv[F], np.zeros(3, dtype=np.int64), 1)
+    assert found.crossings[0] > 0 and found.area[0] > 0.05
+    assert sorted(zip(*(p.tolist() for p in found.pairs))) == [(0, 1)]  # the third only meets them at 0
+    np.testing.assert_allclose(found.pair_area, shared_area(uv[F[[0]]], uv[F[[1]]]))
+
+
 def test_an_island_whose_boundary_would_fold_over_itself_is_kept_from_it():
     # a C-shaped strip on a saddle: laid out isometrically its ends overlap; the
     # refinement keeps its boundary from crossing itself (solver/refinement/contact.py), so it stays

@@ -240,7 +240,9 @@ def overlapping_faces(cuv: np.ndarray, faces: np.ndarray, group: np.ndarray):
     """Pairs of triangles (corner UVs ``cuv`` (m, 3, 2), vertex ids ``faces`` (m, 3)) of
     the same ``group`` (m,) that overlap with positive area, by separating axes (the six
     edge normals; a gap or a touch below 1e-12 of the triangles' size separates).
-    Triangles sharing a vertex are not tested. Returns (p,) and (p,) face indices."""
+    Triangles sharing an edge are not tested (in a layout without folds they lie on its two
+    sides); two that share one vertex are, as they can lie one over the other from there
+    (two flaps hinged at a vertex). Returns (p,) and (p,) face indices."""
     if not len(cuv):
         empty = np.zeros(0, dtype=np.int64)
         return empty, empty
@@ -248,7 +250,7 @@ def overlapping_faces(cuv: np.ndarray, faces: np.ndarray, group: np.ndarray):
     i, j = box_pairs(lo, hi, group, _cell(lo, hi))
     meet = ((lo[i] <= hi[j]) & (lo[j] <= hi[i])).all(axis=1)  # boxes apart: triangles apart
     i, j = i[meet], j[meet]
-    shared = (faces[i][:, :, None] == faces[j][:, None, :]).any(axis=(1, 2))
+    shared = (faces[i][:, :, None] == faces[j][:, None, :]).sum(axis=(1, 2)) >= 2
     i, j = i[~shared], j[~shared]
     # corner coordinates as columns (p,): reductions over axes of length 3 are slow in numpy
     ax = [cuv[i, k, 0] for k in range(3)]
