@@ -718,6 +718,21 @@ def test_a_seed_whose_energy_overflows_is_repaired_by_arap():
     np.testing.assert_allclose(r.uv[2], [0.5, 0.3], atol=1e-5)
 
 
+def test_a_sliver_start_is_opened_not_folded_by_pushing_its_banks_apart():
+    # found on teddy with Smart UV Project's seams: a face laid out as a sliver (its UV
+    # area 3e-4 of its area) has every corner on its other edges, so the banks "touching"
+    # at the start were pushed apart across each other: the face folded, and the energy
+    # (blind to the sign of det J) kept it so, 1e6 times isometric
+    X = np.array([[8.1691, -20.0967, 7.9763], [9.3361, -19.2313, 8.6813], [7.8968, -19.1798, 9.3344]])
+    F = np.array([[0, 1, 2]])
+    uv = np.array([[58.515897, 107.624267], [58.977110, 107.623347], [59.268899, 107.624416]])
+    assert det2(*(uv[1:] - uv[0]).T.ravel()) > 0  # a sliver, counter-clockwise
+    r = refine(X, F, uv, Islands(np.zeros(3, np.int64), 1), HalfEdges(F, 3).twin, iterations=50)
+    assert r.folded == 0 and r.energy[-1] == pytest.approx(4.0, abs=1e-6)
+    lengths = np.linalg.norm(X - X[[1, 2, 0]], axis=1)
+    np.testing.assert_allclose(np.linalg.norm(r.uv - r.uv[[1, 2, 0]], axis=1), lengths, rtol=1e-5)
+
+
 def test_the_energy_the_metrics_report_is_the_one_the_refinement_lowers():
     # the refinement's per-island energy, in its two parts (sum A |J|^2 and sum A |J^-1|^2)
     # taken to each island's best scale, is what metrics.per_island reports for the layout:

@@ -92,12 +92,15 @@ class ContactWatch:
         """Whether contact is kept at all (there is a :class:`.Contact`)."""
         return self.contact is not None
 
-    def begin(self, x: np.ndarray, active: np.ndarray, pinned_island: np.ndarray) -> np.ndarray:
+    def begin(self, x: np.ndarray, active: np.ndarray, pinned_island: np.ndarray, fold_free=None) -> np.ndarray:
         """The start ``x`` (n, 2) of the islands ``active`` with banks that touch pushed apart
-        (:meth:`.Contact.separate`); sets where contact is never followed."""
+        (:meth:`.Contact.separate`), as far as folds no face (``fold_free``: the layout
+        between the one before and the one after that folds nothing); sets where contact
+        is never followed."""
         if self.contact is None:
             return x
-        x = self.contact.separate(x, active & ~pinned_island)
+        apart = self.contact.separate(x, active & ~pinned_island)
+        x = apart if fold_free is None else fold_free(x, apart)
         # no contact where the boundary crosses itself at the start (it can only be left
         # so), nor where pins shape the island (their copies of a seam vertex may meet)
         self.no_contact = self.contact.crossing(x, active) | pinned_island
