@@ -578,6 +578,16 @@ def test_pins_that_do_not_shape_an_island_do_not_stop_its_unfolding():
             assert metrics.flipped(V, F, r.corner_uv) == 0
 
 
+def test_a_collapse_is_found_where_the_determinant_is_nearly_linear_in_the_step():
+    # det(J + t dJ) = qa t^2 + qb t + qc with qa = -2e-23, qb = -2e-3, qc = 1e-3: the
+    # textbook roots (-qb -+ sqrt(disc)) / (2 qa) cancel to 0 and to a negative number, and
+    # the face collapsing at t = 0.5 went unseen (a sliver's banks pushed apart folded it)
+    J = (np.array([1.0]), np.zeros(1), np.zeros(1), np.array([1e-3]))
+    dJ = (np.array([1e-20]), np.zeros(1), np.zeros(1), np.array([-2e-3]))
+    for limit in (np.inf, 1.0 / 0.9):
+        np.testing.assert_allclose(max_step(J, dJ, limit), [0.5], rtol=1e-12)
+
+
 def test_capped_step_finds_the_same_first_collapse_as_the_full_one():
     rng = np.random.default_rng(7)
     m = 20000

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..geometry import TINY, conformal_parts, det2, dirichlet_parts, frames_of, gradient_coefficients, triangles
+from ..geometry import conformal_parts, det2, dirichlet_parts, frames_of, gradient_coefficients, triangles
 from ..mesh.islands import Labelled
 
 __all__ = [
@@ -200,17 +200,16 @@ def max_step(J, dJ, limit: float = np.inf):
             rows = np.flatnonzero(((qa * limit + qb) * limit + qc <= 0) | dips)
         t[rows] = max_step((a[rows], b[rows], c[rows], d[rows]), tuple(x[rows] for x in dJ))
         return t
-    lin = np.abs(qa) < 1e-30 * np.maximum(np.abs(qb), TINY)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tl = -qc / qb
-        t = np.where(lin & (tl > 0), tl, t)
+    # the roots as q / qa and qc / q with q = -(qb + sign(qb) sqrt(disc)) / 2: the textbook
+    # (-qb -+ sqrt(disc)) / (2 qa) cancels where det is nearly linear in t (|qa qc| << qb^2:
+    # a short step, or banks pushed apart evenly) and loses the root; qa = 0 needs no case
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         disc = qb * qb - 4.0 * qa * qc
         sq = np.sqrt(np.maximum(disc, 0.0))
-        r1 = (-qb - sq) / (2.0 * qa)
-        r2 = (-qb + sq) / (2.0 * qa)
-        quad = ~lin & (disc >= 0)
-        r1 = np.where(quad & (r1 > 0), r1, np.inf)
-        r2 = np.where(quad & (r2 > 0), r2, np.inf)
+        q = -0.5 * (qb + np.where(qb < 0, -sq, sq))
+        real = disc >= 0
+        r1 = np.where(real & (q / qa > 0), q / qa, np.inf)
+        r2 = np.where(real & (qc / q > 0), qc / q, np.inf)
     return np.minimum(t, np.minimum(r1, r2))
 
 
