@@ -72,6 +72,7 @@ def measure(V, Ft, cuv) -> dict:
     return dict(
         islands=int(label.max()) + 1,
         sd=per.mean_symmetric_dirichlet,
+        worst=float(np.nanmax(per.symmetric_dirichlet, initial=4.0)),
         linf=per.worst_stretch,
         flips=int(per.flipped.sum()),
         overlapping=over.islands,
