@@ -359,7 +359,7 @@ class _Descent:
         self.settled_energy = float(np.where(self.settled, E, 0.0).sum()) if settle else 0.0
         self.settled_area = float(self.island_area[self.settled].sum())
         self.set_active(active)
-        self.x = self.watch.begin(self.x, active, self.pinned_island(), self._fold_free)
+        self.x = self.watch.begin(self.x, active, self.pinned_island(), lambda x, y: _fold_free(self, x, y))
         self.start = self.x if start is None else start
         self.J = self.frames.jacobians(self.x)
         self.E, self.G = self.energies(self.J)
@@ -376,15 +376,6 @@ class _Descent:
         # cotangent one, whose descent neither needs the re-weighting nor carries rounding
         # of the start as far
         self.reweighting = _Reweighting.starting(active & (self.E > _CRUSHED * 4.0 * self.island_area))
-
-    def _fold_free(self, before: np.ndarray, after: np.ndarray) -> np.ndarray:
-        """The layout from ``before`` towards ``after`` (banks pushed apart), per island as
-        far as it folds no face that ``before`` does not (on a sliver every corner lies on
-        the other edges: pushed apart whole, its banks cross each other)."""
-        J = self.frames.jacobians(before)
-        t = 0.9 * self.per_face.min(max_step(J, self.frames.jacobians(after - before), 1.0 / 0.9))
-        t = np.where(self.per_face.sum(det2(*J) <= 0) > 0, 1.0, np.minimum(t, 1.0))  # (folded already: as before)
-        return before + self.islands.spread(t) * (after - before)
 
     def pinned_island(self) -> np.ndarray:
         """Islands (n_islands,) bool with a pinned vertex (their layout is the pins')."""
@@ -466,6 +457,16 @@ class _Descent:
         self.memory.learn(x_new - self.x, g_new - g, step, self.proxy, self.per_face)
         self.x, self.J, self.E = x_new, step.J, step.E
         return g_new
+
+
+def _fold_free(d: _Descent, before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """The layout from ``before`` towards ``after`` (banks pushed apart), per island of the
+    descent ``d`` as far as it folds no face that ``before`` does not (on a sliver every
+    corner lies on the other edges: pushed apart whole, its banks cross each other)."""
+    J = d.frames.jacobians(before)
+    t = 0.9 * d.per_face.min(max_step(J, d.frames.jacobians(after - before), 1.0 / 0.9))
+    t = np.where(d.per_face.sum(det2(*J) <= 0) > 0, 1.0, np.minimum(t, 1.0))  # (folded already: as before)
+    return before + d.islands.spread(t) * (after - before)
 
 
 # ---------------------------------------------------------------- ARAP and SLIM steps
