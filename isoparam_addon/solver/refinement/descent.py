@@ -460,13 +460,19 @@ class _Descent:
 
 
 def _fold_free(d: _Descent, before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """The layout from ``before`` towards ``after`` (banks pushed apart), per island of the
-    descent ``d`` as far as it folds no face that ``before`` does not (on a sliver every
-    corner lies on the other edges: pushed apart whole, its banks cross each other)."""
-    J = d.frames.jacobians(before)
-    t = 0.9 * d.per_face.min(max_step(J, d.frames.jacobians(after - before), 1.0 / 0.9))
-    t = np.where(d.per_face.sum(det2(*J) <= 0) > 0, 1.0, np.minimum(t, 1.0))  # (folded already: as before)
-    return before + d.islands.spread(t) * (after - before)
+    """``after`` (banks pushed apart from ``before``) but for the vertices whose push would
+    fold a face of the descent ``d`` that ``before`` does not fold: they stay where they
+    were (on a sliver every corner lies on the other edges, and pushed apart they cross).
+    Only where the push ends counts (the start is taken from there, not stepped to)."""
+    faces = d.faces
+    unfolded = signed_double_areas(before, faces) > 0
+    moving = (after != before).any(axis=1)
+    while True:
+        x = np.where(moving[:, None], after, before)
+        folds = unfolded & (signed_double_areas(x, faces) <= 0)
+        if not folds.any():
+            return x
+        moving[faces[folds].ravel()] = False  # (each round stops some: it ends)
 
 
 # ---------------------------------------------------------------- ARAP and SLIM steps
