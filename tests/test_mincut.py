@@ -66,7 +66,8 @@ def test_each_island_is_cut_in_its_own_region(monkeypatch):
     """Two islands in one graph, one to be cut between two discs, one between its two ends:
     the first region around the ends spans their island and separates them, the one
     around the discs must grow. The flows after the first run over the discs' island
-    alone, and each island is cut as it is alone."""
+    alone, and (the two alike, so that the costs scale the same) each island is cut as
+    it is alone."""
     V, F = ex.peaks(50, z_scale=0.5)
     m = len(F)
     both_V, both_F = np.vstack([V, V + [100.0, 0.0, 0.0]]), np.vstack([F, F + len(V)])

@@ -62,6 +62,16 @@ def test_two_flaps_hinged_at_a_vertex_overlap_with_the_area_they_share():
     np.testing.assert_allclose(found.pair_area, shared_area(uv[F[[0]]], uv[F[[1]]]))
 
 
+def test_faces_around_a_vertex_far_from_the_origin_do_not_overlap():
+    # faces sharing one vertex are tested: projected where they lie (0.73 away, 1e-5 in
+    # size), rounding made the touch at the vertex an overlap of a fan laid out correctly
+    a = np.linspace(0.0, 2.0 * np.pi, 30, endpoint=False) + 0.1
+    P = np.vstack([[0.0, 0.0], np.c_[np.cos(a), np.sin(a)]]) * 1e-5 + 0.7312
+    F = np.c_[np.zeros(30, dtype=np.int64), 1 + np.arange(30), 1 + (np.arange(30) + 1) % 30]
+    i, _ = overlapping_faces(P[F], F, np.zeros(30, dtype=np.int64))
+    assert len(i) == 0
+
+
 def test_an_island_whose_boundary_would_fold_over_itself_is_kept_from_it():
     # a C-shaped strip on a saddle: laid out isometrically its ends overlap; the
     # refinement keeps its boundary from crossing itself (solver/refinement/contact.py), so it stays

@@ -252,11 +252,15 @@ def overlapping_faces(cuv: np.ndarray, faces: np.ndarray, group: np.ndarray):
     i, j = i[meet], j[meet]
     shared = (faces[i][:, :, None] == faces[j][:, None, :]).sum(axis=(1, 2)) >= 2
     i, j = i[~shared], j[~shared]
-    # corner coordinates as columns (p,): reductions over axes of length 3 are slow in numpy
-    ax = [cuv[i, k, 0] for k in range(3)]
-    ay = [cuv[i, k, 1] for k in range(3)]
-    bx = [cuv[j, k, 0] for k in range(3)]
-    by = [cuv[j, k, 1] for k in range(3)]
+    # corner coordinates as columns (p,): reductions over axes of length 3 are slow in numpy;
+    # each pair taken from its first triangle's first corner, so that what rounds is the
+    # triangles' size, not where they lie (a vertex two faces share then projects the same,
+    # exactly, whichever face's edge it is projected along)
+    ox, oy = cuv[i, 0, 0], cuv[i, 0, 1]
+    ax = [cuv[i, k, 0] - ox for k in range(3)]
+    ay = [cuv[i, k, 1] - oy for k in range(3)]
+    bx = [cuv[j, k, 0] - ox for k in range(3)]
+    by = [cuv[j, k, 1] - oy for k in range(3)]
     size = np.maximum(
         np.maximum(np.maximum(*ax[:2]), ax[2]) - np.minimum(np.minimum(*ax[:2]), ax[2]),
         np.maximum(np.maximum(*ay[:2]), ay[2]) - np.minimum(np.minimum(*ay[:2]), ay[2]),

@@ -156,8 +156,8 @@ def source_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.nd
     of their component has), which holds the short cuts between sets that are close; the
     region doubles until its cut separates every source face from every sink face (at
     worst, the whole component). Each component of the graph (an island) is done when its
-    own cut separates: the next flows run over the components still joined, and a
-    component's cut does not depend on the others'.
+    own cut separates: the next flows run over the components still joined (the flows'
+    capacities are still scaled by the costs of all the components in them).
     """
     polygon = graph.polygons()
     if polygon is not None:  # a polygon is on one side whole: its source faces claim it

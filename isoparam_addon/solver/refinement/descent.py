@@ -101,6 +101,7 @@ _CRUSHED = 2.0  # an island that starts above this times the isometric energy ge
 _NEAR = 1.1  # ... and takes SLIM steps, not ARAP steps, until it is below this times the isometric energy
 _REFRESH_DROP = 0.7  # factor the re-weighted proxy again once a far island's energy fell this much
 _REFRESH_EVERY = 20  # ... or after this many iterations
+_HALVINGS = 20  # a push of banks apart that folds a face is halved at most this many times, then not made
 _SLIM_STEPS = 30  # at most this many SLIM steps from a start far from isometric
 _HALFWAY = 100  # progress: the iteration count reported as half of the refinement (it stops when converged)
 _SLIM_DROP = 0.3  # ... each lowering the energy by this much (relative)
@@ -460,19 +461,23 @@ class _Descent:
 
 
 def _fold_free(d: _Descent, before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """``after`` (banks pushed apart from ``before``) but for the vertices whose push would
-    fold a face of the descent ``d`` that ``before`` does not fold: they stay where they
-    were (on a sliver every corner lies on the other edges, and pushed apart they cross).
-    Only where the push ends counts (the start is taken from there, not stepped to)."""
+    """``after`` (banks pushed apart from ``before``) with the push of every vertex of a face
+    it would fold (one unfolded in ``before``) halved, again until none folds, and after
+    ``_HALVINGS`` put back (on a sliver every corner lies on the other edges, and pushed
+    apart whole they cross; kept apart a little, two copies of a slit's vertex do not
+    meet, where the barrier between them would be infinite). Only where the push ends
+    counts (the start is taken from there, not stepped to)."""
     faces = d.faces
     unfolded = signed_double_areas(before, faces) > 0
-    moving = (after != before).any(axis=1)
-    while True:
-        x = np.where(moving[:, None], after, before)
+    step = after - before
+    share = np.ones(len(before))
+    for k in range(_HALVINGS + 1):
+        x = before + share[:, None] * step
         folds = unfolded & (signed_double_areas(x, faces) <= 0)
         if not folds.any():
             return x
-        moving[faces[folds].ravel()] = False  # (each round stops some: it ends)
+        share[faces[folds].ravel()] *= 0.5 if k < _HALVINGS else 0.0
+    return before + share[:, None] * step  # (vertices put back cannot fold what was not)
 
 
 # ---------------------------------------------------------------- ARAP and SLIM steps

@@ -193,6 +193,10 @@ def max_step(J, dJ, limit: float = np.inf):
     qa = det2(da, db, dc, dd)
     qb = a * dd + d * da - b * dc - c * db
     qc = det2(a, b, c, d)
+    # (scaled by the largest, which leaves the roots: qb^2 and qa qc would overflow beyond 1e154)
+    big = np.maximum(np.maximum(np.abs(qa), np.abs(qb)), np.abs(qc))
+    big = np.where(np.isfinite(big) & (big > 0), big, 1.0)
+    qa, qb, qc = qa / big, qb / big, qc / big
     t = np.full(len(a), np.inf)
     if np.isfinite(limit):
         with np.errstate(invalid="ignore"):
