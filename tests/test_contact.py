@@ -16,7 +16,7 @@ def _two_banks(gap=0.1):
     after = np.array([1, 0, 3, 2, 5, 4])
     starting = np.arange(6)
     island = np.zeros(6, np.int64)
-    contact = Contact(edges, island, np.full(6, gap), 1, after, after, X, starting)
+    contact = Contact(edges, island, np.full(6, gap), 1, after, after, X, starting, np.full(6, -1))
     return contact, x
 
 
@@ -69,7 +69,7 @@ def test_a_pair_list_renewed_where_vertices_outran_it_is_the_list_built_anew(mon
     gap = 0.5 * np.linalg.norm(x[edges[:, 1]] - x[edges[:, 0]], axis=1)
     after, before = edges[:, 1], (np.arange(n) - 1) % n
     X = np.hstack([x * [1.0, 20.0], np.zeros((n, 1))])  # apart on the surface: the barrier acts
-    contact = Contact(edges, np.zeros(n, np.int64), gap, 1, after, before, X, np.arange(n))
+    contact = Contact(edges, np.zeros(n, np.int64), gap, 1, after, before, X, np.arange(n), np.full(n, -1))
     one = np.ones(1, dtype=bool)
 
     def watch():

@@ -763,6 +763,24 @@ def test_both_banks_of_a_slit_at_slivers_are_kept_apart_not_made_to_meet():
     assert r.energy[-1] < 4.02
 
 
+def test_a_sliver_along_the_boundary_keeps_its_apex_at_its_own_height():
+    # found on the cycloidal gear with Smart UV Project's seams: a sliver whose long edge
+    # and apex are both on the boundary, the apex 1e-5 from that edge on the surface. The
+    # pair (apex, edge) was taken for copies of one vertex, and the barrier held the apex
+    # half the edge's length away: the island ended at 9.14 (two gear islands at 5.5-5.8).
+    # The face's own determinant keeps its apex off its edge; no barrier acts between them
+    h = 1e-5
+    P = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, h], [0.0, 1.0], [0.5, 1.0]])
+    F = np.array([[0, 1, 2], [0, 2, 3], [2, 4, 3]])
+    X = np.hstack([P, np.zeros((len(P), 1))])
+    islands = Islands(np.zeros(len(P), np.int64), 1)
+    r = refine(X, F, P * [1.3, 1.0], islands, HalfEdges(F, len(P)).twin, iterations=200)
+    assert r.folded == 0 and r.energy[0] > 4.2
+    assert r.energy[-1] < 4.001
+    height = det2(*(r.uv[[1, 2]] - r.uv[0]).T.ravel()) / np.linalg.norm(r.uv[1] - r.uv[0])
+    assert 0.0 < height < 2.0 * h
+
+
 def test_the_energy_the_metrics_report_is_the_one_the_refinement_lowers():
     # the refinement's per-island energy, in its two parts (sum A |J|^2 and sum A |J^-1|^2)
     # taken to each island's best scale, is what metrics.per_island reports for the layout:

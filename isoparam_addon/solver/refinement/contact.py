@@ -155,6 +155,11 @@ class Boundary:
         Per edge, the distance below which its barrier acts (half its length on the
         surface).
     n_islands : int
+    opposite : (k,) int64
+        Per edge, the third vertex of its face (-1: none given). No barrier acts between
+        the two: the face's own determinant keeps that vertex off the edge (every step
+        stops before a face collapses), at the face's own shape, where a barrier would
+        hold a sliver's apex at half the edge's length.
     """
 
     edges: np.ndarray
@@ -165,6 +170,7 @@ class Boundary:
     before: np.ndarray  # (n,) the previous one
     X: np.ndarray  # (n, 3) the vertices on the surface
     starting: np.ndarray  # (n,) the boundary edge each boundary vertex starts (-1 off it)
+    opposite: np.ndarray  # (k,) see above
 
     @classmethod
     def of(cls, X: np.ndarray, faces: np.ndarray, vertex_island: np.ndarray, n_islands: int) -> Self:
@@ -180,7 +186,8 @@ class Boundary:
         after[edges[:, 0]], before[edges[:, 1]] = edges[:, 1], edges[:, 0]
         starting = np.full(len(X), -1, dtype=np.int64)
         starting[edges[:, 0]] = np.arange(len(edges))
-        return cls(edges, vertex_island[edges[:, 0]], gap, n_islands, after, before, X, starting)
+        opposite = faces[f, (k + 2) % 3]
+        return cls(edges, vertex_island[edges[:, 0]], gap, n_islands, after, before, X, starting, opposite)
 
     def n_vertices(self, which: np.ndarray) -> int:
         """How many boundary vertices the islands ``which`` (n_islands,) bool have."""
@@ -270,9 +277,9 @@ class Contact(Boundary):
         is_edge = np.arange(2 * k) >= k
         i, j = box_pairs(box_lo, box_hi, np.concatenate([island, island]), cell, query, across=is_edge)
         v, e = vertices[i], on[j - k]
-        # not an edge of the vertex's own
+        # not an edge of the vertex's own, nor of its face's
         a_, b_ = E[e, 0], E[e, 1]
-        keep = (a_ != v) & (b_ != v)
+        keep = (a_ != v) & (b_ != v) & (self.opposite[e] != v)
         v, e = v[keep], e[keep]
         gap = self.gap[e]
         d = _distances(x, v, E[e, 0], E[e, 1])[0]
