@@ -12,6 +12,13 @@ each close pair's normal (:meth:`.Contact.normal_curvature`): the direction then
 along contact rather than into it. It couples u and v, so it is factored over the 2n
 coordinates of the rows still descending, interleaved in the proxy's elimination order,
 and built again every few iterations (see :mod:`.descent`).
+
+That order is Step 3's nested dissection of the mesh. The barrier couples vertices the
+mesh does not (the banks of cuts, a boundary pressed against itself, far apart in that
+order): where its pairs hold more than ``_CONTACT_SHARE`` of the entries (a CAD part cut
+open along many loops: half of them and more), the factor is ordered by SuperLU's
+minimum degree on the matrix itself, which fills 3-10 times less there (and more than
+the nested dissection where the barrier holds few entries: docs/benchmarks.md).
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ from .proxy import Proxy
 __all__ = ["SecondOrderProxy", "second_order_proxy"]
 
 _MIX = 1e-4  # the quadratic proxy's share in it: the energy's Hessian leaves turns (and crushed faces) free
+_CONTACT_SHARE = 0.01  # the share of the entries the barrier's pairs hold above which minimum degree orders
 
 
 @dataclass
@@ -107,8 +115,14 @@ def second_order_proxy(
     blocks = B.transpose(0, 2, 1) @ P @ B
     mixed = sp.kron((_MIX * quadratic.H + 2.0 * sp.diags(quadratic.whisper))[free][:, free], sp.eye(2), format="csr")
     H = pattern.matrix(blocks)[:k, :k] + mixed
+    pairs = 0
     if contact is not None:
-        H = H + contact[coords][:, coords]
+        C = contact[coords][:, coords]
+        pairs = C.nnz
+        H = H + C
     H = H.tocsr()
-    lu = splu(H.tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0)
+    if pairs > _CONTACT_SHARE * H.nnz:  # (symmetric: one order for rows and columns, no pivoting)
+        lu = splu(H.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    else:
+        lu = splu(H.tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0)
     return SecondOrderProxy(H, coords, lu, quadratic, pattern, live)
