@@ -17,7 +17,7 @@ That order is Step 3's nested dissection of the mesh. The barrier couples vertic
 mesh does not (the banks of cuts, a boundary pressed against itself, far apart in that
 order): where its pairs hold more than ``_CONTACT_SHARE`` of the entries (a CAD part cut
 open along many loops: half of them and more), the factor is ordered by SuperLU's
-minimum degree on the matrix itself, which fills 3-10 times less there (and more than
+minimum degree on the matrix itself, which fills 3-12 times less there (and more than
 the nested dissection where the barrier holds few entries: docs/benchmarks.md).
 """
 
