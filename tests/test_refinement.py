@@ -916,6 +916,7 @@ def test_the_second_order_proxy_is_ordered_by_minimum_degree_where_the_barrier_c
 
     from isoparam_addon.solver.mesh.halfedges import unique_edges
     from isoparam_addon.solver.mesh.ordering import nested_dissection
+    from isoparam_addon.solver.refinement.per_face import block_matrix
     from isoparam_addon.solver.refinement.proxy import quadratic_proxy
     from isoparam_addon.solver.refinement.second_order import second_order_proxy
 
@@ -928,10 +929,7 @@ def test_the_second_order_proxy_is_ordered_by_minimum_degree_where_the_barrier_c
     first = np.arange(0, n, 41)
     at = np.stack([2 * first, 2 * first + 1, 2 * first + 80, 2 * first + 81], axis=1)
     g = np.array([1.0, 0.5, -1.0, -0.5])
-    entries = np.broadcast_to(np.outer(g, g), (len(first), 4, 4)).ravel()
-    banks = sp.csr_matrix(
-        (entries, (np.repeat(at, 4, axis=1).ravel(), np.tile(at, (1, 4)).ravel())), shape=(2 * n,) * 2
-    )
+    banks = block_matrix(at, np.broadcast_to(np.outer(g, g), (len(first), 4, 4)), 2 * n)
     rhs = np.random.default_rng(0).standard_normal((n, 2))
     for contact in (None, banks):
         so = second_order_proxy(proxy, J, live, rows, contact)
