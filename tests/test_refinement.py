@@ -848,6 +848,24 @@ def test_a_block_pattern_sums_each_new_set_of_blocks_where_they_belong():
         np.testing.assert_allclose(pattern.matrix(blocks).toarray(), dense, atol=1e-12)
 
 
+def test_a_block_pattern_over_vertices_gives_the_coordinates_own_matrix_entry_for_entry():
+    from isoparam_addon.solver.refinement.per_face import BlockPattern
+
+    rng = np.random.default_rng(6)
+    n = 15
+    at = rng.integers(0, n, size=(60, 3))  # (a vertex may repeat within a block, as pinned corners do)
+    at[:5] = n - 1
+    coords = np.stack([2 * at, 2 * at + 1], axis=2).reshape(-1, 6)
+    by_coordinate = BlockPattern.of(coords, 2 * n)
+    by_vertex = BlockPattern.of(at, n, width=2)
+    blocks = rng.normal(size=(60, 6, 6))
+    a, b = by_coordinate.matrix(blocks), by_vertex.matrix(blocks)
+    assert a.shape == b.shape == (2 * n, 2 * n)
+    np.testing.assert_array_equal(a.indptr, b.indptr)
+    np.testing.assert_array_equal(a.indices, b.indices)
+    np.testing.assert_array_equal(a.data, b.data)  # (summed in the same order: the same bits)
+
+
 def test_a_laplacian_assembled_again_is_the_one_of_the_sparse_products():
     from isoparam_addon.solver.refinement.per_face import FaceFrames
 

@@ -153,7 +153,15 @@ class BlockPattern:
     size: int
 
     @classmethod
-    def of(cls, at: np.ndarray, size: int) -> BlockPattern:
+    def of(cls, at: np.ndarray, size: int, width: int = 1) -> BlockPattern:
+        """The pattern of blocks over the rows and columns ``at`` (p, k) of ``size``.
+
+        With ``width`` > 1, ``at`` numbers vertices of ``width`` coordinates each
+        (coordinate ``width * v + c`` of ``width * size``), and a block (k width, k width)
+        runs over its vertices' coordinates in that order (vertex, then coordinate): the
+        pattern is found among the p k^2 vertex pairs and spread to their coordinates by
+        arithmetic, a sort of ``width^2`` times fewer keys. The matrix is the one the
+        coordinates' own pattern gives, entry for entry."""
         k = at.shape[1]
         rows, cols = np.repeat(at, k, axis=1).ravel(), np.tile(at, (1, k)).ravel()
         key = rows.astype(np.int64) * size + cols
@@ -165,7 +173,25 @@ class BlockPattern:
         slot[order] = np.cumsum(first) - 1
         distinct = ranked[first]
         indptr = np.searchsorted(distinct // size, np.arange(size + 1))
-        return cls(indptr, distinct % size, slot, size)
+        if width == 1:
+            return cls(indptr, distinct % size, slot, size)
+        w = width
+        deg = np.diff(indptr)
+        # coordinate row w v + c holds the w deg(v) columns w u + d of v's pairs (u, d
+        # ascending), from here on
+        row_start = (w * w * indptr[:-1])[:, None] + np.arange(w) * (w * deg)[:, None]  # (size, w)
+        columns = (w * (distinct % size)[:, None] + np.arange(w)).ravel()
+        owner = np.repeat(np.arange(size), w * deg)
+        within = np.arange(len(columns)) - w * indptr[owner]
+        indices = np.empty(w * len(columns), dtype=np.int64)
+        for c in range(w):
+            indices[row_start[owner, c] + within] = columns
+        # a block's entry (a, c; b, d): row w at[a] + c, at the pair (a, b)'s place in it
+        # (the columns (b, d) made one axis first: numpy's loops are slow over axes of 2)
+        offset = slot.reshape(-1, k, k) - indptr[at][:, :, None]
+        columns_of = (w * offset[:, :, :, None] + np.arange(w)).reshape(-1, k, 1, k * w)
+        full = row_start[at][:, :, :, None] + columns_of
+        return cls(np.append(row_start.ravel(), w * w * indptr[-1]), indices, full.ravel(), w * size)
 
     def matrix(self, blocks: np.ndarray) -> sp.csr_matrix:
         """The sum of ``blocks`` (p, k, k) as a sparse (size, size) matrix."""

@@ -102,11 +102,10 @@ def second_order_proxy(
         and np.array_equal(proxy.live, live)
     ):
         pattern = proxy.pattern
-    if pattern is None:  # each live face's six coordinates, numbered among ``coords`` (k: pinned)
-        local = np.full(2 * n, k, dtype=np.int64)
-        local[coords] = np.arange(k)
-        corners = fr.faces[live]
-        pattern = BlockPattern.of(local[np.stack([2 * corners, 2 * corners + 1], axis=2).reshape(-1, 6)], k + 1)
+    if pattern is None:  # each live face's corners, numbered among ``free`` (len(free): pinned)
+        local = np.full(n, len(free), dtype=np.int64)
+        local[free] = np.arange(len(free))
+        pattern = BlockPattern.of(local[fr.faces[live]], len(free) + 1, width=2)
     P = dirichlet_hessians(tuple(j[live] for j in J), fr.area[live])
     # (a, b, c, d) of a face from its corners' (u0, v0, u1, v1, u2, v2)
     B = np.zeros((len(live), 4, 6))
