@@ -12,6 +12,7 @@ medians.
     python scripts/compare_revisions.py c975a22 HEAD --meshes spot fandisk homer --repeat 3
     python scripts/compare_revisions.py HEAD~1 --peaks 317    # peaks 317x317 (z/3) too
     python scripts/compare_revisions.py HEAD~1 --meshes /path/to/beast.obj
+    python scripts/compare_revisions.py HEAD~1 --meshes /path/to/corpus/adis16480.stl
 """
 
 from __future__ import annotations
@@ -43,6 +44,9 @@ elif name == "suzanne":
     V, F = ex.suzanne_closed()
 elif name.endswith(".obj"):  # a mesh of one's own, by its path
     V, F = ex.load_obj(name)[:2]
+elif name.lower().endswith((".off", ".ply", ".stl")):  # (the corpus's other formats)
+    from isoparam_eval.corpus import load_mesh
+    V, F = load_mesh(name)
 else:
     V, F = ex.real_mesh(name)[:2] if name in ex.REAL else ex.load_obj(ex.SHARED / f"{name}.obj")[:2]
 t = time.perf_counter()
