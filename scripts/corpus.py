@@ -19,7 +19,7 @@ a share of all edge length, and the time (median of ``--repeat`` runs).
 
 The summary names the meshes whose mean SD is above 4.25, and those with an island
 above it (with seams marked an island is what the artist's seams bound, and the budget
-is its own; with none, a chart's part may average it out with its other charts).
+is its own; with none, every chart's, and one beyond it is warned of).
 The table goes to stdout, Blender's log (the operator's reports) to stderr. A mesh
 whose reading or unwrap raises gets its error in its row, and the run goes on.
 The exit status is 1 if any mesh raised, or got a flipped face or an island overlapping

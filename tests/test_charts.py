@@ -95,7 +95,27 @@ def test_an_open_part_with_no_seams_is_charted_until_within_budget(height):
     assert per.mean_symmetric_dirichlet <= energy_budget(BUDGET)
     assert per.flipped.sum() == 0 and metrics.self_overlaps(V, F, r.corner_uv).islands == 0
     assert f"stretched beyond {BUDGET:.3g}" in next(w.text for w in r.warnings if w.kind is WarningKind.CHARTS)
+    _assert_within_or_warned(r)
+
+
+def _assert_within_or_warned(r) -> None:
+    """Every chart of ``r`` within the budget at its best scale, or counted in the one
+    warning that it is not."""
+    sd, area = metrics.island_energy(r.vertices, r.faces, r.corner_uv, r.face_island, r.n_islands)
+    over = int(((area > 0) & (sd > energy_budget(BUDGET))).sum())
+    warned = [w.count for w in r.warnings if w.kind is WarningKind.OVER_BUDGET]
+    assert warned == ([over] if over else [])
+
+
+def test_every_chart_is_within_budget_not_only_its_parts_mean():
+    # Suzanne: judged by each part's mean, two of her eight charts stretched to 4.33 and
+    # 4.40 (budget 4.221) unwarned; the check now cuts every chart beyond it
+    V, F = ex.suzanne_closed()
+    r = parametrize(V, F, options=CHARTS)
+    sd, area = metrics.island_energy(r.vertices, r.faces, r.corner_uv, r.face_island, r.n_islands)
+    assert r.n_islands <= 12 and sd[area > 0].max() <= energy_budget(BUDGET)
     assert not [w for w in r.warnings if w.kind is WarningKind.OVER_BUDGET]
+    assert r.flipped.sum() == 0 and metrics.self_overlaps(V, F, r.corner_uv).islands == 0
 
 
 def test_a_check_slits_what_the_solve_left_over_budget():
@@ -162,7 +182,7 @@ def test_a_coarse_ball_with_sharp_spikes_is_charted_within_budget():
     r = parametrize(V, F, options=CHARTS)
     per = metrics.per_island(V, F, r.corner_uv, r.face_island)
     assert per.mean_symmetric_dirichlet <= energy_budget(BUDGET)
-    assert not [w for w in r.warnings if w.kind is WarningKind.OVER_BUDGET]
+    _assert_within_or_warned(r)  # (charts of a few faces at the spikes, too small to cut, are warned)
     assert r.n_islands <= 20 and per.flipped.sum() == 0 and r.flipped.sum() == 0
     assert metrics.self_overlaps(V, F, r.corner_uv).islands == 0
 

@@ -27,18 +27,20 @@ the layout needs it. Here, in that second spirit, the cuts are decided, then ref
    round costs a prediction, not a solve.
 3. **Solve** the mesh once with those cuts as seams. The refinement keeps every chart's
    boundary from crossing itself (:mod:`.contact`), so slits do not fold over.
-4. **Check.** An island still beyond the budget as refined is cut again as in 2, its
-   prediction scaled to what the refinement reached, and its charts alone are solved
+4. **Check.** A chart still beyond the budget as refined is cut again as in 2, its
+   prediction scaled to what the refinement reached, and the charts cut alone are solved
    again from their layout (at most ``_CHECKS`` times); charts that overlap themselves
    (a start that did) are cut apart in the same solve (:func:`.untangle.separating_cuts`).
 
 Every decision but the check reads linear solves and quantities rounded to a grid, with
 ties broken by face number: the charts do not follow the rounding of another machine.
 
-The budget is given as a stretch factor ``s``: an island may be as distorted (symmetric
-Dirichlet energy per area, each chart at its best scale) as one stretched uniformly by
-``s`` (:func:`energy_budget`), which is the energy the refinement lowers; a face squeezed
-to less than ``1 / s^2`` of its area is beyond it.
+The budget is given as a stretch factor ``s``: every chart may be as distorted (symmetric
+Dirichlet energy per area, at its best scale) as one stretched uniformly by ``s``
+(:func:`energy_budget`), which is the energy the refinement lowers; a face squeezed to
+less than ``1 / s^2`` of its area is beyond it. Before the solve an island is judged by
+its charts' mean (the linear prediction of one chart is too rough to cut on); the check
+judges each chart as refined, and a chart it cannot bring within the budget is warned of.
 
 Disks bounded by the artist's seams are the artist's to cut: they are charted only on
 request (``Options.chart_disks``). Islands with pins are left as they are (their layout
@@ -134,7 +136,7 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     with stage("cutting closed parts into cells", 0.04, 0.06):
         cells = _cell_boundaries(owners.graph, owners.face, owners.charted[owners.curved[owners.charted]])
     with stage("placing cuts", 0.06, 0.15):
-        placed, stretched = _placed_cuts(problem, options, np.vstack([seams, cells]), owners)
+        placed, stretched, _ = _placed_cuts(problem, options, np.vstack([seams, cells]), owners)
     first = _without_chips(owners, np.vstack([cells, placed]))  # every cut decided before the solve
     with stage("charting", 0.15, 0.75):
         problem_ = replace(problem, seams=np.vstack([seams, first]))
@@ -303,20 +305,21 @@ class _Charts:
     defect: np.ndarray  # (n,) per vertex, its angle defect over all its faces (a cone's sharpness)
 
 
-def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: float, opening=None):
-    """The cuts of one round (k, 2 vertex pairs) and the charts they cut: in every island
-    whose charts stretch more than ``budget`` on average, the charts holding ``_COVER``
-    of its excess, each slit to every cap it squeezes beyond the budget (:func:`_slits`),
-    or, with none, cut in two between its most squeezed and its most stretched place
-    (:func:`_balls`). ``opening`` (per edge of ``graph``): how far a slit along it would
-    open (see :func:`_slits`)."""
+def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: float, opening=None, each=True):
+    """The cuts of one round (k, 2 vertex pairs) and the charts they cut: with ``each``,
+    every chart that stretches more than ``budget``; and in every island whose charts do
+    on average, the charts holding ``_COVER`` of its excess. Each is slit to every cap it
+    squeezes beyond the budget (:func:`_slits`), or, with none, cut in two between its
+    most squeezed and its most stretched place (:func:`_balls`). ``opening`` (per edge
+    of ``graph``): how far a slit along it would open (see :func:`_slits`)."""
     none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
     energy, area, owner = charts.energy, charts.area, charts.owner
     k = n_owners
     mean = safe_divide(np.bincount(owner, energy * area, minlength=k), np.bincount(owner, area, minlength=k))
     limit = energy_budget(budget)
     over = (area > 0) & (mean[owner] > limit)
-    if not over.any():
+    beyond = (area > 0) & (energy > limit) & each  # (a chart beyond the budget, whatever its island's mean)
+    if not (over | beyond).any():
         return none
     excess = np.where(over, (energy - 4.0) * area, 0.0)
     order = np.lexsort((-excess, owner))  # by island, most excess first
@@ -325,6 +328,7 @@ def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: floa
     before = running[:-1] - running[np.searchsorted(sorted_owner, sorted_owner)]  # excess ahead in its island
     total = np.bincount(owner, excess, minlength=k)
     chosen = order[(before < _COVER * total[sorted_owner]) & over[order]]
+    chosen = unique_sorted(np.concatenate([chosen, np.flatnonzero(beyond)]))
     chosen = chosen[energy[chosen] > 4.0 + _LEAVE * (limit - 4.0)]  # leave near-isometric charts
     faces = np.bincount(charts.face_island, minlength=charts.n_islands)
     owned = np.bincount(owner, faces, minlength=k)[owner]  # faces of each chart's island
@@ -360,16 +364,15 @@ def _checked_cuts(result: Parametrization, problem: Problem, owners: _Owners, op
         V, F, result.face_island, np.vstack([pairs(problem.seams), result.cut_edges]), problem.inner_edges
     )
     tick()
-    energy, area, owner = _chart_energy(result, owners)
-    k = owners.topo.n_islands
-    total = np.bincount(owner, area, minlength=k)
-    measured = safe_divide(np.bincount(owner, (energy - 4.0) * area, minlength=k), total)
-    over = np.flatnonzero((total > 0) & (4.0 + measured > energy_budget(options.max_stretch)))
+    energy, area, _ = _chart_energy(result, owners)
+    # (an island beyond the budget on average holds such a chart at least)
+    beyond = (area > 0) & (energy > energy_budget(options.max_stretch))
     new, split = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
-    if len(over):
+    if beyond.any():  # those charts alone are predicted and cut: the others keep their layout
         seams = np.vstack([pairs(problem.seams), result.cut_edges])
-        new, _ = _placed_cuts(problem, options, seams, owners, over, measured)
-        split = unique_sorted(result.face_island[np.isin(owners.face, over)])
+        judged = np.flatnonzero(beyond[result.face_island])
+        new, _, cut = _placed_cuts(problem, options, seams, owners, judged, (energy - 4.0)[result.face_island])
+        split = unique_sorted(result.face_island[cut])
     tick()
     overlapping = np.flatnonzero(result.islands.crossings > 0) if options.split_overlaps else split[:0]
     # (a chart of an island the caller's seams bound, or no chart, is left to the overlap
@@ -388,14 +391,19 @@ def _placed_cuts(
     options: Options,
     seams: np.ndarray,
     owners: _Owners,
-    which: np.ndarray | None = None,
+    faces: np.ndarray | None = None,
     measured: np.ndarray | None = None,
 ):
-    """The cuts (k, 2 vertex pairs) that bring the charted islands ``which`` (of
-    ``owners``; all by default) within the budget as predicted (:mod:`.stress`), and
-    the islands they cut. ``measured`` (per island of ``owners``): the energy per area
-    above isometric its charts were refined to, if they were; the prediction of each island is scaled to
-    it (a linear prediction misses what large strains and banks pressed together add).
+    """The cuts (k, 2 vertex pairs) that bring the charts of ``faces`` (by default,
+    every charted island of ``owners``) within the budget as predicted (:mod:`.stress`),
+    the islands (of ``owners``) they cut, and the faces of the charts they cut.
+
+    ``measured`` (per face): the energy per area above isometric of its chart as
+    refined, if it was. The prediction of each chart is then scaled to it (a linear
+    prediction misses what large strains and banks pressed together add), a chart cut
+    later keeps the scale of the faces it holds, and every chart is judged on its own;
+    before the solve, an island is judged by its charts' mean (one chart's linear
+    prediction alone is too rough to cut on).
 
     Rounds as after a solve (:func:`_stretch_cuts`), but each reads the linear prediction
     of the charts cut along ``seams`` and the cuts so far, where a round after a solve
@@ -404,13 +412,15 @@ def _placed_cuts(
     refinement from a start near its end. A slit runs where the prediction pulls its
     banks apart (:func:`.stress.normal_stress`), not where they would fold over each
     other."""
-    faces = np.flatnonzero(np.isin(owners.face, owners.charted if which is None else which))
+    if faces is None:
+        faces = np.flatnonzero(np.isin(owners.face, owners.charted))
     sub, used = sub_problem(replace(problem, seams=seams), faces)
     base = _Base.of(sub, options)
     n_owners = owners.topo.n_islands
-    scale = None
+    scale = None  # (per face of ``faces``) how much more than predicted its chart stretched
     cuts = np.zeros((0, 2), dtype=np.int64)
     cut_owners = np.zeros(0, dtype=np.int64)
+    cut_faces = np.zeros(len(faces), dtype=bool)
     touched = None  # the islands the last round cut: the only ones predicted (and judged) again
     for j in range(_ROUNDS):
         tick(j / _ROUNDS)
@@ -419,24 +429,29 @@ def _placed_cuts(
         judged = np.ones(charts.n, dtype=bool) if touched is None else np.isin(owner, touched)
         prediction = _predicted(X, split_faces, charts, judged)
         ratio = _smoothed(graph, prediction.face_trace(split_faces), base.area)
-        if measured is not None and scale is None:  # refined against predicted, per island
-            predicted = safe_divide(
-                np.bincount(owner, prediction.excess, minlength=n_owners),
-                np.bincount(owner, prediction.area, minlength=n_owners),
-            )
+        if measured is not None and scale is None:  # refined against predicted, per chart
+            refined = _per_chart(measured[faces], base.area, charts.face_chart, charts.n)
+            predicted = safe_divide(prediction.excess, prediction.area)
             # (aimed lower: a cut after the solve is the last)
-            scale = _AIM * np.clip(safe_divide(measured, predicted, 1.0), 1.0, _MOST_SCALE)
-        excess = prediction.excess * (_FIRST_AIM if scale is None else scale[owner])
+            scale = (_AIM * np.clip(safe_divide(refined, predicted, 1.0), 1.0, _MOST_SCALE))[charts.face_chart]
+        aim = _FIRST_AIM if scale is None else _per_chart(scale, base.area, charts.face_chart, charts.n)
+        excess = prediction.excess * aim
         energy = 4.0 + safe_divide(excess, prediction.area)
         laid = _Charts(base.V, base.F, charts.face_chart, charts.n, energy, prediction.area, owner, ratio, base.defect)
         opening = stress.normal_stress(X, split_faces, prediction.phi, ends)
-        new, split = _stretch_cuts(laid, graph, n_owners, options.max_stretch, opening)
+        new, split = _stretch_cuts(laid, graph, n_owners, options.max_stretch, opening, measured is not None)
         if not len(new):
             break
         cuts = np.vstack([cuts, new])
         touched = unique_sorted(owner[split])
         cut_owners = unique_sorted(np.concatenate([cut_owners, touched]))
-    return used[cuts], cut_owners
+        cut_faces |= np.isin(charts.face_chart, split)
+    return used[cuts], cut_owners, faces[cut_faces]
+
+
+def _per_chart(value: np.ndarray, area: np.ndarray, face_chart: np.ndarray, n: int) -> np.ndarray:
+    """Per chart (n,), the area-weighted mean of ``value`` (per face) over its faces."""
+    return safe_divide(np.bincount(face_chart, value * area, minlength=n), np.bincount(face_chart, area, minlength=n))
 
 
 def _predicted(X: np.ndarray, faces: np.ndarray, charts: _Split, judged: np.ndarray) -> stress.Prediction:
@@ -754,25 +769,22 @@ def _charted(result: Parametrization, owners: _Owners, cut: np.ndarray, budget: 
 
 
 def _over_budget(result: Parametrization, owners: _Owners, budget: float, refined: bool) -> list[SolverWarning]:
-    """The warning on the islands charting is for (:func:`_owners`) whose charts still
-    stretch beyond ``budget`` on average, pinned ones included: how many, how far, and
-    what would help."""
+    """The warning on the charts of the islands charting is for (:func:`_owners`), pinned
+    ones included, that still stretch beyond ``budget``: how many, how far (their mean),
+    and what would help."""
     islands = unique_sorted(np.concatenate([owners.charted, owners.held]))
     energy, area, owner = _chart_energy(result, owners, islands)
-    k = owners.topo.n_islands
-    total = np.bincount(owner, area, minlength=k)
-    mean = safe_divide(np.bincount(owner, energy * area, minlength=k), total)
-    over = np.flatnonzero(mean > energy_budget(budget))
+    over = np.flatnonzero((area > 0) & (energy > energy_budget(budget)))
     if not len(over):
         return []
     return over_budget(
         islands=len(over),
-        pinned=int(np.isin(over, owners.held).sum()),
-        energy=float(safe_divide((mean[over] * total[over]).sum(), total[over].sum())),
+        pinned=int(np.isin(owner[over], owners.held).sum()),
+        energy=float(safe_divide((energy[over] * area[over]).sum(), area[over].sum())),
         budget=budget,
         allowed=energy_budget(budget),
         refined=refined,
-        first=int(result.face_island[first_rows(owners.face)[over[0]]]),
+        first=int(over[0]),
     )
 
 
