@@ -315,7 +315,7 @@ def _stretch_cuts(charts: _Charts, graph: FaceGraph, n_owners: int, budget: floa
     none = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
     energy, area, owner = charts.energy, charts.area, charts.owner
     k = n_owners
-    mean = safe_divide(np.bincount(owner, energy * area, minlength=k), np.bincount(owner, area, minlength=k))
+    mean = _per_chart(energy, area, owner, k)  # (per island: the area-weighted mean of its charts)
     limit = energy_budget(budget)
     over = (area > 0) & (mean[owner] > limit)
     beyond = (area > 0) & (energy > limit) & each  # (a chart beyond the budget, whatever its island's mean)
@@ -450,7 +450,8 @@ def _placed_cuts(
 
 
 def _per_chart(value: np.ndarray, area: np.ndarray, face_chart: np.ndarray, n: int) -> np.ndarray:
-    """Per chart (n,), the area-weighted mean of ``value`` (per face) over its faces."""
+    """Per chart (n,), the area-weighted mean of ``value`` (per face, or per member of
+    whatever ``face_chart`` (m,) groups) over its faces."""
     return safe_divide(np.bincount(face_chart, value * area, minlength=n), np.bincount(face_chart, area, minlength=n))
 
 
