@@ -52,7 +52,11 @@ def test_a_flow_over_a_narrowed_graph_runs_on_the_faces_its_edges_touch(monkeypa
     flow = mincut.csgraph.maximum_flow
     monkeypatch.setattr(mincut.csgraph, "maximum_flow", lambda g, s, t: sizes.append(g.shape[0]) or flow(g, s, t))
     side = mincut._exact_side(narrowed, source, sink)
-    assert sizes == [int(band.sum()) + 2]  # the band's faces, the source and the sink
+    # the band's faces that an edge joins to a face not on its own side, the source and the sink
+    held = (source[narrowed.f] & source[narrowed.g]) | (sink[narrowed.f] & sink[narrowed.g])
+    touched = np.zeros(len(F), dtype=bool)
+    touched[narrowed.f[~held]] = touched[narrowed.g[~held]] = True
+    assert sizes == [int(touched.sum()) + 2] and touched.sum() < band.sum()
     assert side[source & ~band].all() and not side[sink & ~band].any()
     # the band alone, renumbered, cut the same way
     index = np.cumsum(band) - 1
@@ -92,3 +96,47 @@ def test_each_island_is_cut_in_its_own_region(monkeypatch):
         alone = graph.among(mine)
         alone = mincut.FaceGraph(index[alone.f], index[alone.g], alone.edges, alone.cost, graph.centroids[mine])
         assert np.array_equal(side[mine], mincut.source_side(alone, source[mine], sink[mine])), k
+
+
+def _flow_over_every_edge(graph, source, sink) -> np.ndarray:
+    """The faces the source reaches in the residual graph of one maximum flow over every
+    edge of ``graph`` (capacities as :func:`mincut._exact_side` scales them)."""
+    m = graph.n_faces
+    typical = float(np.median(graph.cost))
+    capacity = 1 + np.minimum(np.round(mincut._UNITS * graph.cost / typical), 1e6).astype(np.int64)
+    big = int(min(capacity.sum() + 1, 1 << 30))
+    S, T = m, m + 1
+    rows = np.concatenate([graph.f, graph.g, np.full(source.sum(), S), np.flatnonzero(sink)])
+    cols = np.concatenate([graph.g, graph.f, np.flatnonzero(source), np.full(sink.sum(), T)])
+    caps = np.concatenate([capacity, capacity, np.full(source.sum(), big), np.full(sink.sum(), big)])
+    G = mincut.sp.csr_matrix((caps.astype(np.int32), (rows, cols)), shape=(m + 2, m + 2))
+    residual = (G - mincut.csgraph.maximum_flow(G, S, T).flow).tocsr()
+    residual.data = (residual.data > 0).astype(np.int8)
+    residual.eliminate_zeros()
+    side = np.zeros(m + 2, dtype=bool)
+    side[mincut.csgraph.breadth_first_order(residual, S, directed=True, return_predecessors=False)] = True
+    return side[:m]
+
+
+@pytest.mark.parametrize("layout", ["cells", "balls", "strips"])
+def test_a_flow_leaves_out_the_joins_within_its_source_or_its_sink(layout):
+    """No minimum cut crosses an edge between two source faces or two sink faces, so the
+    flow runs without them (over the faces between the two sets only) and the source
+    reaches the same faces as a flow over every edge."""
+    V, F = ex.peaks(50, z_scale=1.5)
+    graph = mincut.face_graph(V, F, np.zeros(len(F), dtype=np.int64), np.zeros((0, 2), dtype=np.int64))
+    xy = graph.centroids[:, :2]
+    lo, span = xy.min(axis=0), np.ptp(xy, axis=0)
+    u, v = ((xy - lo) / span).T
+    if layout == "cells":  # two cores, a band between them (the cells' boundaries)
+        source, sink = u < 0.45, u > 0.55
+    elif layout == "balls":  # two discs (a cut between the most squeezed and stretched places)
+        source = np.hypot(u - 0.3, v - 0.4) < 0.15
+        sink = np.hypot(u - 0.7, v - 0.6) < 0.15
+    else:  # interleaved strips: many separate parts on each side
+        source, sink = (np.floor(8 * u) % 2 == 0) & (v < 0.8), (np.floor(8 * u) % 2 == 1) & (v < 0.8)
+        source &= (8 * u) % 1 < 0.6
+        sink &= (8 * u) % 1 > 0.4
+    side = mincut._exact_side(graph, source, sink)
+    assert np.array_equal(side, _flow_over_every_edge(graph, source, sink))
+    assert side[source].all() and not side[sink].any()

@@ -281,21 +281,27 @@ def _exact_side(graph: FaceGraph, source: np.ndarray, sink: np.ndarray) -> np.nd
     keeps every face, so a flow over all of them would spend each of Dinic's phases on
     the faces beyond it."""
     m = graph.n_faces
-    # only the faces the edges touch take part, numbered 0..k-1
-    node = np.zeros(m, dtype=bool)
-    node[graph.f] = node[graph.g] = True
-    alone = source & ~node  # (on the source side; a sink face alone is not)
-    source, sink = source & node, sink & node
-    index = np.cumsum(node) - 1
-    k = int(node.sum())
-    f, g = index[graph.f], index[graph.g]
     finite = np.isfinite(graph.cost)
     positive = finite & (graph.cost > 0)
     typical = float(np.median(graph.cost[positive])) if positive.any() else 1.0
     scaled = np.minimum(np.round(_UNITS * np.where(finite, graph.cost, 0.0) / typical), 1e6)
     capacity = np.where(finite, 1 + scaled.astype(np.int64), _NEVER)
-    S, T = k, k + 1
     big = int(min(capacity.sum() + 1, 1 << 30))
+    # an edge between two source faces, or two sink faces, is never cut: every minimum cut
+    # holds both on their side, so without it the cuts, and the faces the source reaches,
+    # are the same; only the faces between the two sets are left to flow through (the
+    # cores of cells, the balls of a cut: most of the graph)
+    between = ~((source[graph.f] & source[graph.g]) | (sink[graph.f] & sink[graph.g]))
+    graph_f, graph_g, capacity = graph.f[between], graph.g[between], capacity[between]
+    # only the faces the edges touch take part, numbered 0..k-1
+    node = np.zeros(m, dtype=bool)
+    node[graph_f] = node[graph_g] = True
+    alone = source & ~node  # (on the source side; a sink face alone is not)
+    source, sink = source & node, sink & node
+    index = np.cumsum(node) - 1
+    k = int(node.sum())
+    f, g = index[graph_f], index[graph_g]
+    S, T = k, k + 1
     rows = np.concatenate([f, g, np.full(source.sum(), S), index[sink]])
     cols = np.concatenate([g, f, index[source], np.full(sink.sum(), T)])
     caps = np.concatenate([capacity, capacity, np.full(source.sum(), big), np.full(sink.sum(), big)])
