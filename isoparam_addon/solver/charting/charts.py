@@ -400,8 +400,9 @@ def _placed_cuts(
 
     ``measured`` (per face): the energy per area above isometric of its chart as
     refined, if it was. The prediction of each chart is then scaled to it (a linear
-    prediction misses what large strains and banks pressed together add), a chart cut
-    later keeps the scale of the faces it holds, and every chart is judged on its own;
+    prediction misses what large strains and banks pressed together add), a chart is
+    judged at first by no less than what it reached, a chart cut later keeps the scale of
+    the faces it holds, and every chart is judged on its own;
     before the solve, an island is judged by its charts' mean (one chart's linear
     prediction alone is too rough to cut on).
 
@@ -437,6 +438,10 @@ def _placed_cuts(
         aim = _FIRST_AIM if scale is None else _per_chart(scale, base.area, charts.face_chart, charts.n)
         excess = prediction.excess * aim
         energy = 4.0 + safe_divide(excess, prediction.area)
+        if measured is not None and j == 0:
+            # a chart as refined is judged by what it reached where its prediction misses
+            # it (a sharp cone in a few slivers: scaled from almost nothing, or clipped)
+            energy = np.maximum(energy, 4.0 + _AIM * refined)
         laid = _Charts(base.V, base.F, charts.face_chart, charts.n, energy, prediction.area, owner, ratio, base.defect)
         opening = stress.normal_stress(X, split_faces, prediction.phi, ends)
         new, split = _stretch_cuts(laid, graph, n_owners, options.max_stretch, opening, measured is not None)
