@@ -210,6 +210,8 @@ def test_an_island_with_pins_is_not_charted():
     r = parametrize(V, F, inner_edges=diagonals, pins=(pinned, uv), options=CHARTS)
     assert r.n_islands == 1  # cut open as far as it must be, no more
     assert [w.kind for w in r.warnings if w.kind in CUTS or w.kind is WarningKind.CHARTS] == [WarningKind.CUT_CLOSED]
+    over = [w.text for w in r.warnings if w.kind is WarningKind.OVER_BUDGET]  # (a cube opened flat: 4.6)
+    assert len(over) == 1 and "1 kept whole by its pins;" in over[0] and "charting" not in over[0]
 
 
 def test_charts_keep_off_polygon_diagonals():
@@ -288,3 +290,6 @@ def test_without_refinement_the_stretch_warning_points_to_the_refinement_not_to_
     over = next(w for w in r.warnings if w.kind is WarningKind.OVER_BUDGET)
     assert f"beyond {BUDGET:.3g}" in over.text and "not refined: refinement lowers it" in over.text
     assert "mark seams" not in over.text
+    # and why charting left them so: its checks ran out (the last one cut), or found no cut
+    why = "left so after charting's 2 checks" if r.stats.chart_rounds == 2 else "where charting finds no cut"
+    assert f"{over.count} {why};" in over.text

@@ -131,7 +131,7 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
         if options.split_overlaps and (result.islands.crossings > 0).any():
             with stage("overlap cuts", 0.9, 1.0):
                 result = without_overlaps(result, problem, options)
-        result.warnings += _over_budget(result, owners, options.max_stretch, options.refine > 0)
+        result.warnings += _over_budget(result, owners, options.max_stretch, options.refine > 0, False)
         return result
     with stage("cutting closed parts into cells", 0.04, 0.06):
         cells = _cell_boundaries(owners.graph, owners.face, owners.charted[owners.curved[owners.charted]])
@@ -163,7 +163,8 @@ def with_charts(problem: Problem, options: Options) -> Parametrization:
     if options.split_overlaps and (result.islands.crossings > 0).any():
         with stage("overlap cuts", 0.9, 1.0):
             result = without_overlaps(result, problem, options)
-    result.warnings = _warnings(result, owners, stretch_cut, options.max_stretch, options.refine > 0)
+    exhausted = rounds == _CHECKS  # (the last check cut, and what it left was not checked again)
+    result.warnings = _warnings(result, owners, stretch_cut, options.max_stretch, options.refine > 0, exhausted)
     cut = _cut_by_charting(result, owners, stretch_cut)
     result.stats.charts = int(len(unique_sorted(result.face_island[np.isin(owners.face, cut)])))
     result.stats.chart_rounds = rounds
@@ -774,10 +775,12 @@ def _charted(result: Parametrization, owners: _Owners, cut: np.ndarray, budget: 
     )
 
 
-def _over_budget(result: Parametrization, owners: _Owners, budget: float, refined: bool) -> list[SolverWarning]:
+def _over_budget(
+    result: Parametrization, owners: _Owners, budget: float, refined: bool, exhausted: bool
+) -> list[SolverWarning]:
     """The warning on the charts of the islands charting is for (:func:`_owners`), pinned
     ones included, that still stretch beyond ``budget``: how many, how far (their mean),
-    and what would help."""
+    why (pins; the checks ran out, ``exhausted``, or found no cut) and what would help."""
     islands = unique_sorted(np.concatenate([owners.charted, owners.held]))
     energy, area, owner = _chart_energy(result, owners, islands)
     over = np.flatnonzero((area > 0) & (energy > energy_budget(budget)))
@@ -791,6 +794,7 @@ def _over_budget(result: Parametrization, owners: _Owners, budget: float, refine
         allowed=energy_budget(budget),
         refined=refined,
         first=int(over[0]),
+        checks=_CHECKS if exhausted else 0,
     )
 
 
@@ -821,7 +825,7 @@ def _cut_by_charting(result: Parametrization, owners: _Owners, stretch_cut: np.n
 
 
 def _warnings(
-    result: Parametrization, owners: _Owners, stretch_cut: np.ndarray, budget: float, refined: bool
+    result: Parametrization, owners: _Owners, stretch_cut: np.ndarray, budget: float, refined: bool, exhausted: bool
 ) -> list[SolverWarning]:
     """The result's warnings, with what the charts did in place of what the topology cut.
 
@@ -850,7 +854,7 @@ def _warnings(
         now(topo.nonorientable_islands),
     )
     out += _charted(result, owners, cut, budget)
-    out += _over_budget(result, owners, budget, refined)
+    out += _over_budget(result, owners, budget, refined, exhausted)
     apart = np.flatnonzero(pieces > 1)  # islands cut apart where they overlapped
     apart = apart[~np.isin(apart, cut)]
     out += cut_apart(result.face_island[first[apart]])
@@ -878,12 +882,22 @@ def charted(islands: int, not_disks: int, curved: int, charts: int, energy: floa
     return [warning(WarningKind.CHARTS, charts, "island", first, template)]
 
 
-def over_budget(islands: int, pinned: int, energy: float, budget: float, allowed: float, refined: bool, first: int):
+def over_budget(
+    islands: int, pinned: int, energy: float, budget: float, allowed: float, refined: bool, first: int, checks: int
+):
     """The warning on ``islands`` whose charts still stretch beyond ``budget`` (Max Stretch,
-    which ``allowed`` symmetric Dirichlet energy per area) after charting, ``pinned`` of
-    them whole because of their pins: their mean energy per area, and what would help:
-    seams, a higher budget, or (not ``refined``) refinement."""
-    why = f", {pinned} kept whole by {'its' if pinned == 1 else 'their'} pins" if pinned else ""
+    which ``allowed`` symmetric Dirichlet energy per area) after charting: their mean energy
+    per area, why they are left so (``pinned`` of them kept whole by their pins; the others
+    left so after ``checks`` checks, or, with ``checks`` 0, where the checks found
+    no cut to make), and what would help: seams, a higher budget, or (not ``refined``)
+    refinement."""
+    why = f"; {pinned} kept whole by {'its' if pinned == 1 else 'their'} pins" if pinned else ""
+    if islands > pinned:
+        rest = islands - pinned
+        if checks:
+            why += f"; {rest} left so after charting's {checks} checks"
+        else:
+            why += f"; {rest} where charting finds no cut"
     help_ = "mark seams there or raise Max Stretch" if refined else "not refined: refinement lowers it"
     template = (
         f"{counted(islands, 'island stretches', 'islands stretch')} beyond {budget:.3g} "
