@@ -116,10 +116,9 @@ def test_odd_islands_one_island_a_point_and_gaps_in_the_numbering(spot_charts):
         packing.pack_layout(np.full((1, 3, 2), np.nan), np.zeros(1, dtype=np.int64), 1)
 
 
-def test_the_packing_does_not_depend_on_fft_threads_or_on_the_run(spot_charts, monkeypatch):
+def test_the_packing_does_not_depend_on_the_run(spot_charts):
     uv, island, n = spot_charts
     first = packing.pack_layout(uv, island, n, margin=0.002).uv
-    monkeypatch.setattr(packing, "_WORKERS", 1)
     assert np.array_equal(packing.pack_layout(uv, island, n, margin=0.002).uv, first)
     # rounding in the input (another BLAS, another thread count) moves it by rounding only
     nudged = packing.pack_layout(uv * (1 + 1e-13), island, n, margin=0.002).uv
@@ -219,24 +218,25 @@ def test_rings_folds_and_dense_islands_keep_their_margin():
             assert least_gap(out, island, spacing=margin / 2) >= 2 * margin * (1 - 1e-9)
 
 
-def test_the_table_of_cells_taken_kept_as_boxes_are_placed_is_the_table_made_anew(rng):
-    # the box phase keeps its summed-area table of the cells taken as it places boxes,
-    # rather than summing the grid again for every box: the two agree cell for cell
+def test_the_free_positions_kept_as_boxes_are_placed_are_the_positions_made_anew(rng):
+    # the box phase works out a run's free positions once and then rules out, box by box,
+    # the positions each box covers, searching again only the rows whose first free
+    # position it took: the positions, and each row's first, are the ones worked out anew
     grid = rng.uniform(size=(40, 60)) < 0.1
-    counts = np.zeros((41, 61), dtype=np.int32)
-    np.cumsum(np.cumsum(grid, axis=0, dtype=np.int32), axis=1, out=counts[1:, 1:])
+    w, h = 5, 3
+    kept = packing._Free(packing._Cells(~grid).fits(packing._box_runs(w, h), 40 - h + 1, 60 - w + 1))
     placed = 0
     for _ in range(200):
-        w, h = rng.integers(1, 9, size=2)
-        x, y = rng.integers(0, 60 - w + 1), rng.integers(0, 40 - h + 1)
-        if grid[y : y + h, x : x + w].any():
+        bw, bh = rng.integers(1, 9, size=2)
+        x, y = rng.integers(0, 60 - bw + 1), rng.integers(0, 40 - bh + 1)
+        if grid[y : y + bh, x : x + bw].any():
             continue  # (only free boxes are placed)
-        grid[y : y + h, x : x + w] = True
-        packing._count_box(counts, int(x), int(y), int(w), int(h))
+        grid[y : y + bh, x : x + bw] = True
+        kept.take(max(y - h + 1, 0), y + bh, max(x - w + 1, 0), x + bw)
         placed += 1
-    anew = np.zeros_like(counts)
-    np.cumsum(np.cumsum(grid, axis=0, dtype=np.int32), axis=1, out=anew[1:, 1:])
-    assert placed > 10 and np.array_equal(counts, anew)
+    anew = packing._Free(_fits_directly(grid, np.ones((h, w), dtype=bool)))
+    assert placed > 10 and np.array_equal(kept.cells, anew.cells)
+    assert np.array_equal(kept.any, anew.any) and np.array_equal(kept.first[anew.any], anew.first[anew.any])
 
 
 def _fits_directly(region, mask):
@@ -253,6 +253,7 @@ def test_the_free_positions_of_regions_that_share_their_transforms_are_each_regi
     regions = [rng.uniform(size=(37, 52)) < 0.08, rng.uniform(size=(45, 41)) < 0.05]
     regions.append(regions[0].copy())  # (rules that agree so far: worked out once)
     poses = [rng.uniform(size=s) < 0.6 for s in ((5, 7), (9, 4), (1, 1), (50, 3))]
+    poses.append(np.pad(np.zeros((3, 4), dtype=bool), 2, constant_values=True))  # (runs in stacks, two a row)
     together = packing._free_maps(regions, poses, None)
     for r, region in enumerate(regions):
         alone = packing._free_maps([region], poses, None)[0]

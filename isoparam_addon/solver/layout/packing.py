@@ -12,23 +12,24 @@ more of the texture's texels land on the model.
    They go in one at a time, largest first, each in the best of its frames and their four
    quarter turns, at the free position that keeps the layout's bounding square smallest,
    then its bounding box, then nearest the origin: the rule of xatlas's packer (J. Young,
-   ``xatlas``: ``findChartLocation_bruteForce`` in ``packCharts``). Where an island fits
-   is one FFT correlation of its cells with the cells taken, for every position and pose
-   at once. An island tried in many poses (the largest, in every frame) is first placed
-   on the cells two by two (a quarter of the transforms' work), and only its best poses
-   there are placed at full resolution.
+   ``xatlas``: ``findChartLocation_bruteForce`` in ``packCharts``). Where an island fits,
+   at every position at once, is read off the free cells held as the bits of one integer:
+   shifted by each run of the island's cells along a row and ANDed, one shift and one
+   AND per run (:class:`_Cells`). An island tried in many poses (the largest, in every
+   frame) is first placed on the cells two by two (a quarter of the bits), and only its
+   best poses there are placed at full resolution.
 3. The other islands go by their boxes (lying or standing), smallest last, on a grid
-   ``_FINER`` times finer, into the room left, holes first (summed-area tables, one per
-   run of boxes of one size); the tiniest on shelves in blocks first.
+   ``_FINER`` times finer, into the room left, holes first (the free positions worked out
+   once per run of boxes of one size); the tiniest on shelves in blocks first.
 4. Both steps run by two placement rules (xatlas's smallest square, Blender's nearest
    corner); the packing with the smaller square is kept, then turned as a whole to the
    angle of its smallest bounding square. The rules place the large islands side by
-   side, so that a pose's transform serves both.
+   side, so that while their layouts are the same the free positions serve both.
 
 Islands end ``2 * margin`` apart at least: each is grown by half of it (its cells cover
 every point within that Chebyshev distance), and grown islands never share a cell. Pure
-numpy and ``scipy.fft``; the loops run once per large island and once per size of box
-(per rule).
+numpy (and Python's integers as bit sets); the loops run once per large island and pose,
+once per run of an island's cells, and once per size of box (per rule).
 """
 
 from __future__ import annotations
@@ -36,7 +37,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.fft
 import scipy.ndimage
 
 from .. import progress
@@ -57,7 +57,6 @@ _TINY = 2  # islands under this many fine cells (grown) go on shelves in blocks
 _BLOCK = 12  # the side of those blocks, in fine cells
 _TIE = 1e-6  # relative differences below this are ties (decided by island number, or angle)
 _RULES = ("square", "corner")  # the placement rules tried (:func:`_best_box`)
-_WORKERS = 2  # threads for the FFTs of many poses at once (results do not depend on it)
 _SCREENED = 8  # islands tried in more poses than this are screened on a grid twice as coarse
 _SCREEN = 4  # ... and only their best poses there are placed at full resolution
 _TRIES = 6  # packings at most, each with a gap guessed from the last (:func:`_next_guess`)
@@ -303,8 +302,8 @@ def _pack_units(flat, corners: Islands, outline, frames: list[_Frame], cell: flo
     alike = np.round(box / max(float(box.max()) * _TIE, TINY))  # (islands alike up to rounding tie)
     rank[np.lexsort((np.arange(n), -alike))] = np.arange(n)
     # shapes for the largest islands only, and only those whose box spans _SHAPED_CELLS
-    # cells: a smaller one differs from its box by a few cells, where its FFT would cost
-    # the whole layout's
+    # cells: a smaller one differs from its box by a few cells, and a box's free positions
+    # cost less
     large = int((box >= _SHAPED_CELLS * cell * cell).sum())
     shaped = rank < min(_SHAPED, large)
     n_shaped = int(shaped.sum())
@@ -543,9 +542,9 @@ class _Layout:
 
 def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float) -> list[_Layout]:
     """Place the units, largest first, each in the best of its shapes (``choices``: mask
-    numbers per unit) and their quarter turns, by every rule of ``_RULES`` side by side:
-    a unit's poses are transformed once for all the rules' layouts. Returns the layouts,
-    one per rule, in the order of ``_RULES``."""
+    numbers per unit) and their quarter turns, by every rule of ``_RULES`` side by side
+    (while the rules' layouts are the same, a pose's free positions serve both). Returns
+    the layouts, one per rule, in the order of ``_RULES``."""
     k = len(choices)
     cells = np.array([masks[c[0]].sum() for c in choices])
     order = np.lexsort((np.arange(k), -cells))
@@ -601,10 +600,34 @@ def _screened(regions: list[np.ndarray], poses: list[np.ndarray], layouts: list[
             continue
         keys = []
         for j, (f, m) in enumerate(zip(free, coarse)):
-            found = _best_in(f, m.shape[1], m.shape[0], (lay.ex + 1) // 2, (lay.ey + 1) // 2, aspect, lay.rule)
+            found = _best_in(_Free(f), m.shape[1], m.shape[0], (lay.ex + 1) // 2, (lay.ey + 1) // 2, aspect, lay.rule)
             keys.append(((0,) + found[0] if found is not None else (1,), j))
         kept.append(sorted(j for _, j in sorted(keys)[:_SCREEN]))
     return kept
+
+
+class _Free:
+    """A map of a shape's free lower-left cells (``cells[y, x]``) and, per row, its first
+    free cell (``first``; ``any``: whether the row has one): both rules read only those
+    (along a row, each rule's best position is its first free cell). A box placed rules
+    out a window of positions; only the rows whose first free cell it covered are searched
+    again."""
+
+    def __init__(self, cells: np.ndarray):
+        self.cells = cells
+        rows = np.arange(len(cells))
+        self.first = cells.argmax(axis=1) if cells.size else np.zeros(len(cells), dtype=np.int64)
+        self.any = cells[rows, self.first] if cells.size else np.zeros(len(cells), dtype=bool)
+
+    def take(self, y0: int, y1: int, x0: int, x1: int) -> None:
+        """The positions in rows ``y0:y1``, columns ``x0:x1`` no longer free."""
+        self.cells[y0:y1, x0:x1] = False
+        first = self.first[y0:y1]
+        again = y0 + np.flatnonzero(self.any[y0:y1] & (first >= x0) & (first < x1))
+        if len(again):
+            found = self.cells[again].argmax(axis=1)
+            self.first[again] = found
+            self.any[again] = self.cells[again, found]
 
 
 def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: float, rule: str):
@@ -614,13 +637,12 @@ def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: 
     :func:`_place` does. Returns per box its lower-left cell (k, 2) and quarter turn (0 or
     1).
 
-    Where a box fits is read off a summed-area table of the cells taken (kept as boxes are
-    placed, made again only where the cells in question outgrow it), once per run of
-    boxes of one size; each box placed then rules out the positions it covers."""
+    Where a box fits is worked out once per run of boxes of one size (:class:`_Cells`);
+    each box placed then rules out the positions it covers, and only the rows whose first
+    free position it took are searched again (:class:`_Free`)."""
     k = len(cells)
     where = np.zeros((k, 2), dtype=np.int64)
     turn = np.zeros(k, dtype=np.int64)
-    counts = np.zeros((1, 1), dtype=np.int32)  # counts[Y, X]: cells taken in grid[:Y, :X]
     i = 0
     while i < k:
         progress.tick(i / max(k, 1))
@@ -631,21 +653,16 @@ def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: 
         reach = max(w0, h0)
         grid = _room(grid, max(ex, ey) + reach)
         ax, ay = min(ex + reach, grid.shape[1]), min(ey + reach, grid.shape[0])
-        if ay >= counts.shape[0] or ax >= counts.shape[1]:  # (a table of the cells that held)
-            counts = np.zeros((ay + 1, ax + 1), dtype=np.int32)
-            np.cumsum(np.cumsum(grid[:ay, :ax], axis=0, dtype=np.int32), axis=1, out=counts[1:, 1:])
-        table = counts[: ay + 1, : ax + 1]  # (a prefix's table is the table's corner)
+        region = _Cells(~grid[:ay, :ax])
         shapes = [(w0, h0)] if w0 == h0 else [(w0, h0), (h0, w0)]
-        # (a box's window holds no cell taken: its four corners' counts cancel)
-        free = [table[h:, w:] + table[:-h, :-w] == table[:-h, w:] + table[h:, :-w] for w, h in shapes]
+        free = [_Free(region.fits(_box_runs(w, h), ay - h + 1, ax - w + 1)) for w, h in shapes]
         grown = False
         while i < run_end and not grown:
             q, x, y = _best_box(free, shapes, ex, ey, aspect, rule)
             w, h = shapes[q]
             grid[y : y + h, x : x + w] = True
-            _count_box(counts, x, y, w, h)
             for (w2, h2), f in zip(shapes, free):  # the positions that now overlap it
-                f[max(y - h2 + 1, 0) : y + h, max(x - w2 + 1, 0) : x + w] = False
+                f.take(max(y - h2 + 1, 0), y + h, max(x - w2 + 1, 0), x + w)
             grown = x + w > ex or y + h > ey
             ex, ey = max(ex, x + w), max(ey, y + h)
             where[i], turn[i] = (x, y), q
@@ -653,17 +670,7 @@ def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: 
     return where, turn, ex, ey
 
 
-def _count_box(counts: np.ndarray, x: int, y: int, w: int, h: int) -> None:
-    """The summed-area table ``counts`` (``counts[Y, X]``: cells taken in ``grid[:Y, :X]``)
-    with a free box of ``w`` x ``h`` cells at (``x``, ``y``) taken: ``counts[Y, X]`` gains
-    ``min(Y - y, h) * min(X - x, w)`` where both are positive."""
-    cols = np.minimum(np.arange(1, counts.shape[1] - x), w).astype(np.int32)
-    ramp = np.arange(1, min(h, counts.shape[0] - y - 1) + 1, dtype=np.int32)
-    counts[y + 1 : y + 1 + len(ramp), x + 1 :] += ramp[:, None] * cols[None, :]
-    counts[y + 1 + h :, x + 1 :] += h * cols[None, :]
-
-
-def _best_box(free: list[np.ndarray], shapes, ex: int, ey: int, aspect: float, rule: str):
+def _best_box(free: list[_Free], shapes, ex: int, ey: int, aspect: float, rule: str):
     """The turn and lower-left cell of the best position among ``free`` (one map of free
     lower-left cells per shape (columns, rows)), by ``rule``:
 
@@ -684,24 +691,23 @@ def _best_box(free: list[np.ndarray], shapes, ex: int, ey: int, aspect: float, r
     return best[1], best[2], best[3]
 
 
-def _best_in(f: np.ndarray, w: int, h: int, ex: int, ey: int, aspect: float, rule: str):
+def _best_in(f: _Free, w: int, h: int, ex: int, ey: int, aspect: float, rule: str):
     """The key (as :func:`_best_box` ranks positions) and lower-left cell of the best free
     position of one shape of ``w`` x ``h`` cells, ``f`` its map of free lower-left cells;
     None where it fits nowhere."""
-    if not f.size:
+    if not f.cells.size:
         return None
     # both rules grow with x along a row: each row's best is its first free cell
-    first = f.argmax(axis=1)  # (0 in a row with none: told apart by the cell itself)
-    y = np.flatnonzero(f[np.arange(len(f)), first])
+    y = np.flatnonzero(f.any)
     if not len(y):
         return None
-    x = first[y]
+    x = f.first[y]
     inner = (x + w <= ex) & (y + h <= ey)
     if rule == "square" and inner.any():
         x, y = x[inner], y[inner]
     if rule == "corner" or inner.any():
         reach = np.maximum(x, y) if rule == "square" else np.maximum((x + w) / aspect, y + h)
-        j = np.lexsort((x, y, reach))[0]
+        j = int(np.argmin(reach))  # (rows ascend, one position each: the lowest of the ties)
         key = (0.0 if rule == "square" else float(reach[j]), float(reach[j]), int(y[j]), int(x[j]))
     else:
         wide, high = np.maximum(ex, x + w), np.maximum(ey, y + h)
@@ -716,43 +722,89 @@ def _best_in(f: np.ndarray, w: int, h: int, ex: int, ey: int, aspect: float, rul
 def _free_maps(regions: list[np.ndarray], poses: list[np.ndarray], wanted: list[list[int]] | None):
     """Per region and pose (mask), the map of the pose's lower-left cells where it takes no
     cell the region takes; empty where it does not fit, or is not ``wanted`` (per region,
-    pose numbers; None: all). One FFT of each region, one of every pose wanted (shared by
-    the regions: one transform size for all) and one back per region and pose, for every
-    position at once."""
+    pose numbers; None: all). Each region's free cells are one integer (:class:`_Cells`),
+    and a pose fits where that integer, shifted by each run of the pose's cells along a
+    row, is set for all runs: one shift and one AND per run, for every position at once."""
     free = [[np.zeros((0, 0), dtype=bool) for _ in poses] for _ in regions]
     twin = [_twin(regions, wanted, r) for r in range(len(regions))]  # (the rules agree so far)
-    todo = []
+    runs: dict[int, tuple] = {}  # per pose, made once for every region
     for r, region in enumerate(regions):
         if twin[r] < r:
             continue
         ay, ax = region.shape
         taken = region.any()
+        cells = None
         for j in range(len(poses)) if wanted is None else wanted[r]:
             sy, sx = ay - poses[j].shape[0] + 1, ax - poses[j].shape[1] + 1
             if min(sy, sx) <= 0:
                 continue
-            if taken:
-                todo.append((r, j, sy, sx))
-            else:
+            if not taken:
                 free[r][j] = np.ones((sy, sx), dtype=bool)
-    if not todo:
-        return [free[t] for t in twin]
-    used = sorted({j for _, j, _, _ in todo})
-    at = {j: i for i, j in enumerate(used)}
-    busy = sorted({r for r, _, _, _ in todo})
-    shape = tuple(scipy.fft.next_fast_len(max(regions[r].shape[d] for r in busy), real=True) for d in range(2))
-    stack = np.zeros((len(used), *shape), dtype=np.float32)
-    for i, j in enumerate(used):
-        stack[i, : poses[j].shape[0], : poses[j].shape[1]] = poses[j]
-    spectra = np.conj(scipy.fft.rfft2(stack, workers=_WORKERS))
-    for r in busy:
-        mine = [(j, sy, sx) for r2, j, sy, sx in todo if r2 == r]
-        product = spectra[[at[j] for j, _, _ in mine]]
-        product *= scipy.fft.rfft2(regions[r].astype(np.float32), s=shape)[None]
-        hits = scipy.fft.irfft2(product, s=shape, workers=_WORKERS)
-        for k, (j, sy, sx) in enumerate(mine):
-            free[r][j] = hits[k, :sy, :sx] < 0.5
+                continue
+            if cells is None:
+                cells = _Cells(region == 0)
+            if j not in runs:
+                runs[j] = _runs(poses[j])
+            free[r][j] = cells.fits(runs[j], sy, sx)
     return [free[t] for t in twin]
+
+
+def _runs(mask: np.ndarray):
+    """The runs of ``mask``'s cells along its rows, rows alike in a run stacked: per stack
+    its first row, first column, length and number of rows."""
+    padded = np.zeros((mask.shape[0], mask.shape[1] + 2), dtype=np.int8)
+    padded[:, 1:-1] = mask
+    edge = np.diff(padded, axis=1)
+    row, first = np.nonzero(edge == 1)
+    _, end = np.nonzero(edge == -1)
+    # a run that the row before has too (same columns) joins its stack
+    key = first * (mask.shape[1] + 1) + (end - first)
+    order = np.lexsort((row, key))
+    row, key = row[order], key[order]
+    new = np.ones(len(row), dtype=bool)
+    new[1:] = (key[1:] != key[:-1]) | (row[1:] != row[:-1] + 1)
+    head = np.flatnonzero(new)
+    count = np.diff(np.append(head, len(row)))
+    first, length = np.divmod(key[head], mask.shape[1] + 1)
+    return row[head].tolist(), first.tolist(), length.tolist(), count.tolist()
+
+
+def _box_runs(w: int, h: int):
+    """The runs (as :func:`_runs` gives them) of a box of ``w`` x ``h`` cells."""
+    return [0], [0], [w], [h]
+
+
+class _Cells:
+    """A region's free cells (``free[y, x]``) as one integer, bit ``y * width + x``; and
+    per run length ``w`` the cells that start ``w`` free cells in a row. A pose whose runs
+    are (row ``r``, column ``c``, length ``w``) fits at (``x``, ``y``) where the cells
+    starting ``w`` free ones have bit ``(y + r) * width + x + c`` for every run: the
+    region's integer shifted and ANDed once per run (a stack of ``k`` rows alike, about
+    ``log2 k`` times). Bits that wrap into the next row belong to positions past the
+    region's side, which :meth:`fits` leaves out."""
+
+    def __init__(self, free: np.ndarray):
+        self.width = free.shape[1]
+        self.bits = int.from_bytes(np.packbits(free.ravel(), bitorder="little").tobytes(), "little")
+        self.starts = [self.bits]  # [w - 1]: the cells that start w free cells
+
+    def fits(self, runs, sy: int, sx: int) -> np.ndarray:
+        """The map (``sy``, ``sx``) of the lower-left cells where the pose of ``runs``
+        (:func:`_runs`) meets no cell taken."""
+        rows, cols, lengths, counts = runs
+        starts, width = self.starts, self.width
+        while len(starts) < max(lengths, default=1):
+            starts.append(starts[-1] & (self.bits >> len(starts)))
+        n = sy * width
+        fit = (1 << n) - 1
+        for r, c, w, k in zip(rows, cols, lengths, counts):
+            stack, done = starts[w - 1], 1
+            while done < k:  # (rows [0, done) free, then [0, 2 done), up to k)
+                stack &= stack >> (min(done, k - done) * width)
+                done += min(done, k - done)
+            fit &= stack >> (r * width + c)
+        row = np.unpackbits(np.frombuffer(fit.to_bytes((n + 7) // 8, "little"), dtype=np.uint8), bitorder="little")
+        return row[:n].view(bool).reshape(sy, width)[:, :sx]
 
 
 def _twin(regions: list[np.ndarray], wanted: list[list[int]] | None, r: int) -> int:
@@ -770,5 +822,5 @@ def _best_pose(free: list[np.ndarray], poses: list[np.ndarray], ex: int, ey: int
     position, ``free`` being one region's maps of :func:`_free_maps` (empty for the poses
     not tried there or that fit nowhere), as :func:`_best_box` ranks them."""
     fits = [i for i, f in enumerate(free) if f.size]
-    q, x, y = _best_box([free[i] for i in fits], [poses[i].shape[::-1] for i in fits], ex, ey, aspect, rule)
+    q, x, y = _best_box([_Free(free[i]) for i in fits], [poses[i].shape[::-1] for i in fits], ex, ey, aspect, rule)
     return fits[q], x, y
