@@ -786,19 +786,41 @@ class _Cells:
     def __init__(self, free: np.ndarray):
         self.width = free.shape[1]
         self.bits = int.from_bytes(np.packbits(free.ravel(), bitorder="little").tobytes(), "little")
-        self.starts = [self.bits]  # [w - 1]: the cells that start w free cells
+        self.starts = {1: self.bits}  # w: the cells that start w free cells
+
+    def _start(self, lengths) -> None:
+        """:attr:`starts` for every one of ``lengths``: from the next shorter one known,
+        one cell longer at a time where it is near, else from runs of powers of two
+        (``starts(a + b)`` is ``starts(a)`` and ``starts(b)`` shifted by ``a``)."""
+        starts = self.starts
+        for w in sorted(set(lengths) - set(starts)):
+            k = max(j for j in starts if j < w)
+            if w - k <= 2:
+                for j in range(k, w):
+                    starts[j + 1] = starts[j] & (self.bits >> j)
+                continue
+            p = 1
+            while 2 * p <= w:
+                if 2 * p not in starts:
+                    starts[2 * p] = starts[p] & (starts[p] >> p)
+                p *= 2
+            run, done = starts[p], p
+            while done < w:
+                q = 1 << ((w - done).bit_length() - 1)
+                run &= starts[q] >> done
+                done += q
+            starts[w] = run
 
     def fits(self, runs, sy: int, sx: int) -> np.ndarray:
         """The map (``sy``, ``sx``) of the lower-left cells where the pose of ``runs``
         (:func:`_runs`) meets no cell taken."""
         rows, cols, lengths, counts = runs
+        self._start(lengths)
         starts, width = self.starts, self.width
-        while len(starts) < max(lengths, default=1):
-            starts.append(starts[-1] & (self.bits >> len(starts)))
         n = sy * width
         fit = (1 << n) - 1
         for r, c, w, k in zip(rows, cols, lengths, counts):
-            stack, done = starts[w - 1], 1
+            stack, done = starts[w], 1
             while done < k:  # (rows [0, done) free, then [0, 2 done), up to k)
                 stack &= stack >> (min(done, k - done) * width)
                 done += min(done, k - done)
