@@ -794,9 +794,9 @@ class _Cells:
         (``starts(a + b)`` is ``starts(a)`` and ``starts(b)`` shifted by ``a``)."""
         starts = self.starts
         for w in sorted(set(lengths) - set(starts)):
-            k = max(j for j in starts if j < w)
-            if w - k <= 2:
-                for j in range(k, w):
+            near = [j for j in (w - 1, w - 2) if j in starts]
+            if near:
+                for j in range(near[0], w):
                     starts[j + 1] = starts[j] & (self.bits >> j)
                 continue
             p = 1
