@@ -3,6 +3,7 @@ square; never closer than the margin; denser than shelves of boxes; deterministi
 
 import numpy as np
 import pytest
+import scipy.ndimage
 
 from isoparam_addon.solver import Cancelled, metrics, parametrize
 from isoparam_addon.solver.layout import packing
@@ -266,6 +267,23 @@ def test_the_free_positions_of_regions_that_share_their_transforms_are_each_regi
     wanted = packing._free_maps(regions, poses, [[1], [], [0, 1]])
     assert np.array_equal(wanted[0][1], together[0][1]) and np.array_equal(wanted[2][0], together[0][0])
     assert sum(f.size for f in wanted[0]) == together[0][1].size and not any(f.size for f in wanted[1])
+
+
+def test_the_cells_enclosed_are_filled_for_all_masks_at_once_as_for_each_alone(rng):
+    # the masks are filled in one labelling, stacked with free cells between: each is
+    # filled as scipy fills it alone (holes 4-connected to no border), whatever its
+    # neighbours in the stack hold
+    ring = np.pad(np.zeros((3, 4), dtype=bool), 1, constant_values=True)
+    open_ring = ring.copy()
+    open_ring[0, 2] = False  # (a gap in the outline: nothing enclosed)
+    corner = ring.copy()
+    corner[0, 0] = False  # (a hole whose outside meets only diagonally: still a hole)
+    masks = [ring, open_ring, corner, np.ones((1, 1), dtype=bool), np.zeros((2, 9), dtype=bool)]
+    masks += [rng.uniform(size=(int(rng.integers(1, 30)), int(rng.integers(1, 30)))) < 0.55 for _ in range(40)]
+    filled = packing._filled(masks)
+    assert filled[0].all() and not filled[1][1:-1, 1:-1].any()
+    for mask, mine in zip(masks, filled):
+        assert np.array_equal(mine, scipy.ndimage.binary_fill_holes(mask))
 
 
 def test_a_pose_that_fits_on_the_coarse_cells_fits_at_full_resolution(rng):

@@ -316,7 +316,7 @@ def _pack_units(flat, corners: Islands, outline, frames: list[_Frame], cell: flo
     edge = Islands(corners.label[rows], n)
     coords = np.concatenate([(_framed(flat[rows], edge, f) + pad).reshape(-1, 3, 2) for f in frames])
     masks, dims = _rasterize(coords, np.concatenate([nf * r + f for f in range(nf)]), nf * n_shaped, cell, pad)
-    masks = [scipy.ndimage.binary_fill_holes(m) for m in masks]  # the cells the outlines enclose
+    masks = _filled(masks)  # the cells the outlines enclose
     # the small islands' boxes, on a finer grid (closed: a side on a cell's edge takes the next)
     fine = cell / _FINER
     unit, offset, unit_size = _box_units(frames[0].size, ~shaped, pad, fine)
@@ -496,6 +496,26 @@ def _rasterize(tri, unit, n_units: int, cell: float, pad: float = 0.0):
     return masks, dims
 
 
+def _filled(masks: list[np.ndarray]) -> list[np.ndarray]:
+    """The masks with the cells they enclose filled (holes: free cells 4-connected to no
+    border, as ``scipy.ndimage.binary_fill_holes`` fills them), all in one labelling: the
+    masks stacked one above the other, a free row between and a free column beside, so
+    that every mask's outside meets the image's border and no hole meets another mask."""
+    if not masks:
+        return []
+    width = max(m.shape[1] for m in masks) + 1
+    top = np.cumsum([0] + [m.shape[0] + 1 for m in masks])
+    image = np.zeros((int(top[-1]) + 1, width), dtype=bool)
+    for m, y in zip(masks, top):
+        image[y + 1 : y + 1 + m.shape[0], : m.shape[1]] = m
+    label, n = scipy.ndimage.label(~image)
+    outside = np.zeros(n + 1, dtype=bool)
+    for side in (label[0], label[-1], label[:, 0], label[:, -1]):
+        outside[side] = True
+    image |= ~outside[label]
+    return [image[y + 1 : y + 1 + m.shape[0], : m.shape[1]] for m, y in zip(masks, top)]
+
+
 def _turned_masks(mask: np.ndarray) -> list[np.ndarray]:
     """The mask's four quarter turns counter-clockwise (x right, y up), as the rows move in
     :func:`_pack_units`."""
@@ -579,7 +599,7 @@ def _pooled(mask: np.ndarray) -> np.ndarray:
     h, w = mask.shape
     padded = np.zeros((h + h % 2, w + w % 2), dtype=bool)
     padded[:h, :w] = mask > 0
-    return padded.reshape(padded.shape[0] // 2, 2, padded.shape[1] // 2, 2).any(axis=(1, 3))
+    return padded[0::2, 0::2] | padded[1::2, 0::2] | padded[0::2, 1::2] | padded[1::2, 1::2]
 
 
 def _screened(regions: list[np.ndarray], poses: list[np.ndarray], layouts: list[_Layout], aspect: float):
@@ -727,46 +747,56 @@ def _free_maps(regions: list[np.ndarray], poses: list[np.ndarray], wanted: list[
     row, is set for all runs: one shift and one AND per run, for every position at once."""
     free = [[np.zeros((0, 0), dtype=bool) for _ in poses] for _ in regions]
     twin = [_twin(regions, wanted, r) for r in range(len(regions))]  # (the rules agree so far)
-    runs: dict[int, tuple] = {}  # per pose, made once for every region
+    tasks = []  # (region, pose, rows, columns of its map)
     for r, region in enumerate(regions):
         if twin[r] < r:
             continue
         ay, ax = region.shape
         taken = region.any()
-        cells = None
         for j in range(len(poses)) if wanted is None else wanted[r]:
             sy, sx = ay - poses[j].shape[0] + 1, ax - poses[j].shape[1] + 1
             if min(sy, sx) <= 0:
                 continue
-            if not taken:
+            if taken:
+                tasks.append((r, j, sy, sx))
+            else:
                 free[r][j] = np.ones((sy, sx), dtype=bool)
-                continue
-            if cells is None:
-                cells = _Cells(region == 0)
-            if j not in runs:
-                runs[j] = _runs(poses[j])
-            free[r][j] = cells.fits(runs[j], sy, sx)
+    need = sorted({j for _, j, _, _ in tasks})
+    runs = dict(zip(need, _runs([poses[j] for j in need])))  # per pose, made once for every region
+    cells: dict[int, _Cells] = {}
+    for r, j, sy, sx in tasks:
+        if r not in cells:
+            cells[r] = _Cells(regions[r] == 0)
+        free[r][j] = cells[r].fits(runs[j], sy, sx)
     return [free[t] for t in twin]
 
 
-def _runs(mask: np.ndarray):
-    """The runs of ``mask``'s cells along its rows, rows alike in a run stacked: per stack
-    its first row, first column, length and number of rows."""
-    padded = np.zeros((mask.shape[0], mask.shape[1] + 2), dtype=np.int8)
-    padded[:, 1:-1] = mask
-    edge = np.diff(padded, axis=1)
-    row, first = np.nonzero(edge == 1)
-    _, end = np.nonzero(edge == -1)
+def _runs(masks: list[np.ndarray]) -> list[tuple[list, list, list, list]]:
+    """Per mask, the runs of its cells along its rows, rows alike in a run stacked: per
+    stack its first row, first column, length and number of rows. All masks at once."""
+    if not masks:
+        return []
+    h = max(m.shape[0] for m in masks)
+    w = max(m.shape[1] for m in masks)
+    padded = np.zeros((len(masks), h, w + 2), dtype=np.int8)
+    for i, m in enumerate(masks):
+        padded[i, : m.shape[0], 1 : m.shape[1] + 1] = m
+    edge = np.diff(padded, axis=2)
+    pose, row, first = np.nonzero(edge == 1)
+    end = np.nonzero(edge == -1)[2]
     # a run that the row before has too (same columns) joins its stack
-    key = first * (mask.shape[1] + 1) + (end - first)
+    key = (pose * (w + 1) + first) * (w + 1) + (end - first)
     order = np.lexsort((row, key))
     row, key = row[order], key[order]
     new = np.ones(len(row), dtype=bool)
     new[1:] = (key[1:] != key[:-1]) | (row[1:] != row[:-1] + 1)
     head = np.flatnonzero(new)
     count = np.diff(np.append(head, len(row)))
-    first, length = np.divmod(key[head], mask.shape[1] + 1)
-    return row[head].tolist(), first.tolist(), length.tolist(), count.tolist()
+    rest, length = np.divmod(key[head], w + 1)
+    pose, first = np.divmod(rest, w + 1)
+    cut = np.searchsorted(pose, np.arange(len(masks) + 1)).tolist()
+    lists = row[head].tolist(), first.tolist(), length.tolist(), count.tolist()
+    return [tuple(x[cut[i] : cut[i + 1]] for x in lists) for i in range(len(masks))]  # type: ignore[misc]
 
 
 def _box_runs(w: int, h: int):
