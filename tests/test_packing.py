@@ -269,6 +269,25 @@ def test_the_free_positions_of_regions_that_share_their_transforms_are_each_regi
     assert sum(f.size for f in wanted[0]) == together[0][1].size and not any(f.size for f in wanted[1])
 
 
+def test_beyond_the_largest_islands_only_those_unlike_their_boxes_go_by_their_shapes():
+    # 120 large islands: L shapes (a third of their box empty) and squares. The largest
+    # _SHAPED go by their shapes whatever they are; beyond them only the L shapes, whose
+    # boxes would waste a third; the squares go by their boxes (as well placed, on a
+    # finer grid)
+    square = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], dtype=float)
+    ell = np.concatenate([square * [2, 1], square + [0, 1]])  # (a 2 x 2 box, 3/4 filled)
+    tris, island = [], []
+    for i in range(120):
+        size = 1.0 + 0.001 * i  # (sizes apart: the ranking is by box area)
+        shape = ell if i % 2 else square * 2  # (the same box)
+        tris.append(shape * size)
+        island += [i] * len(shape)
+    uv, island = np.concatenate(tris), np.array(island)
+    out = packing.pack_layout(uv, island, 120, margin=0.001)
+    assert out.shaped == packing._SHAPED + (120 - packing._SHAPED) // 2
+    assert islands_overlapping(out.uv, island) == 0
+
+
 def test_the_cells_enclosed_are_filled_for_all_masks_at_once_as_for_each_alone(rng):
     # the masks are filled in one labelling, stacked with free cells between: each is
     # filled as scipy fills it alone (holes 4-connected to no border), whatever its

@@ -4,7 +4,9 @@ more of the texture's texels land on the model.
 1. Every island gets a few frames: the turn to its tightest box (the least-area bounding
    rectangle, searched over angles), the turn to its smallest bounding square, and, for
    the largest islands, turns in between.
-2. The largest islands (``_SHAPED``, of ``_SHAPED_CELLS`` cells or more) are rasterized
+2. The largest islands (``_SHAPED``, of ``_SHAPED_CELLS`` cells or more), and beyond them
+   every island of that size that fills less than ``_BOXY`` of its tightest box (one that
+   fills it is placed as well by its box, on the finer grid), are rasterized
    conservatively (the triangles on their outline, and the cells those enclose: the
    work follows the outlines, not the faces), grown by half the margin, at a cell that
    puts about ``_CELLS`` cells along the side of a square as large as all the boxes (or
@@ -50,6 +52,7 @@ __all__ = ["Packing", "pack_layout"]
 _CELLS = 200  # cells along the side of a square as large as the islands' boxes together
 _SHAPED = 48  # the largest islands, placed by their cells; the rest by their boxes
 _SHAPED_CELLS = 64  # ... if their tightest box spans this many cells at least
+_BOXY = 0.9  # beyond _SHAPED, the islands that fill less than this share of their box too
 _TURNED = 4  # the largest islands, tried in more frames (turns between the two boxes')
 _BETWEEN = 3  # turns of pi / 8 apart tried beyond the tightest box's
 _FINER = 2  # the boxes' grid: cells this many times finer
@@ -128,7 +131,8 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
     edge = Islands(corners.label[rim], k)
     frames = list(_tightest_boxes(flat[rim], edge))
     frames += [_frame_at(flat[rim], edge, frames[0].angle + j * np.pi / 8) for j in range(1, _BETWEEN + 1)]
-    area = float(np.abs(corner_signed_areas(pts)).sum())
+    filled = np.bincount(label, np.abs(corner_signed_areas(pts)), minlength=k)  # per island
+    area = float(filled.sum())
     boxes_area = float(np.prod(frames[0].size, axis=1).sum())
     room = max(boxes_area, area, TINY)
     # the cell follows the square the layout will need: the boxes' area, or half the
@@ -144,7 +148,7 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
             # (a margin wide against the islands sets the cell: a pad of many cells would
             # spread the boxes' grid over thousands of cells for gaps)
             grid_cell = max(cell, 0.5 * gap / _PAD_CELLS)
-            placed, shaped = _pack_units(flat, corners, outline, frames, grid_cell, 0.5 * gap, aspect)
+            placed, shaped = _pack_units(flat, corners, outline, frames, filled, grid_cell, 0.5 * gap, aspect)
             placed = _squarest(placed, rim, aspect)
             lo = placed.min(axis=0)
             ext = placed.max(axis=0) - lo
@@ -292,7 +296,7 @@ def _framed(flat, corners: Islands, frame: _Frame) -> np.ndarray:
     return _turn(flat, corners, frame.angle) - corners.expand(frame.lo)
 
 
-def _pack_units(flat, corners: Islands, outline, frames: list[_Frame], cell: float, pad: float, aspect: float):
+def _pack_units(flat, corners: Islands, outline, frames: list[_Frame], filled, cell: float, pad: float, aspect: float):
     """Place every island of the rows ``flat``, each grown by ``pad``; the rows where they
     went (layout units) and the number of islands placed by their shapes. ``outline``:
     the triangles that mark an island's cells (:func:`_outline`)."""
@@ -304,18 +308,25 @@ def _pack_units(flat, corners: Islands, outline, frames: list[_Frame], cell: flo
     # shapes for the largest islands only, and only those whose box spans _SHAPED_CELLS
     # cells: a smaller one differs from its box by a few cells, and a box's free positions
     # cost less
-    large = int((box >= _SHAPED_CELLS * cell * cell).sum())
-    shaped = rank < min(_SHAPED, large)
+    big = box >= _SHAPED_CELLS * cell * cell
+    shaped = (rank < min(_SHAPED, int(big.sum()))) | (big & (filled < _BOXY * box))
     n_shaped = int(shaped.sum())
-    by_rank = np.argsort(rank)[:n_shaped]
-    # the shapes: one per frame of each large island, numbered nf * rank + frame
+    by_rank = np.argsort(rank)
+    by_rank = by_rank[shaped[by_rank]]
+    slot = np.zeros(n, dtype=np.int64)
+    slot[by_rank] = np.arange(n_shaped)
+    # the shapes: one per frame of each large island, numbered nf * slot + frame
+    # (the frames beyond the first two only for the _TURNED largest, which try them all)
     tri_label = corners.label[::3]
     pick = np.flatnonzero(shaped[tri_label] & outline)
-    r = rank[tri_label[pick]]
-    rows = (3 * pick[:, None] + np.arange(3)).ravel()
-    edge = Islands(corners.label[rows], n)
-    coords = np.concatenate([(_framed(flat[rows], edge, f) + pad).reshape(-1, 3, 2) for f in frames])
-    masks, dims = _rasterize(coords, np.concatenate([nf * r + f for f in range(nf)]), nf * n_shaped, cell, pad)
+    coords, units = [], []
+    for f, frame in enumerate(frames):
+        if f >= 2:
+            pick = pick[slot[tri_label[pick]] < _TURNED]
+        rows = (3 * pick[:, None] + np.arange(3)).ravel()
+        coords.append((_framed(flat[rows], Islands(corners.label[rows], n), frame) + pad).reshape(-1, 3, 2))
+        units.append(nf * slot[tri_label[pick]] + f)
+    masks, dims = _rasterize(np.concatenate(coords), np.concatenate(units), nf * n_shaped, cell, pad)
     masks = _filled(masks)  # the cells the outlines enclose
     # the small islands' boxes, on a finer grid (closed: a side on a cell's edge takes the next)
     fine = cell / _FINER
@@ -429,7 +440,8 @@ def _best_of_rules(masks, choices, boxes_lying: np.ndarray, aspect: float):
 
 
 def _choices(frames: list[_Frame], by_rank: np.ndarray, nf: int) -> list[list[int]]:
-    """The shapes (numbered ``nf * rank + frame``) tried for each large island, by rank:
+    """The shapes (numbered ``nf * slot + frame``, ``slot`` the island's place in ``by_rank``) tried
+    for each large island, by rank:
     every frame for the ``_TURNED`` largest, the first two for the rest, less the frames a
     quarter turn (or none) from an earlier one."""
     angles = np.stack([f.angle[by_rank] for f in frames], axis=1)
@@ -568,7 +580,7 @@ def _place(masks: list[np.ndarray], choices: list[list[int]], aspect: float) -> 
     k = len(choices)
     cells = np.array([masks[c[0]].sum() for c in choices])
     order = np.lexsort((np.arange(k), -cells))
-    biggest = max((max(masks[c].shape) for c in range(len(masks))), default=1)
+    biggest = max((max(masks[c].shape) for pose in choices for c in pose), default=1)
     side = int(np.ceil(np.sqrt(sum(masks[c[0]].size for c in choices)) * 1.6)) + biggest
     layouts = [
         _Layout(
