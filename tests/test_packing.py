@@ -288,6 +288,43 @@ def test_beyond_the_largest_islands_only_those_unlike_their_boxes_go_by_their_sh
     assert islands_overlapping(out.uv, island) == 0
 
 
+@pytest.mark.parametrize(("k", "seed", "calls"), [(600, 1, [True, False]), (300, 3, [True])])
+def test_a_rule_that_cannot_leave_the_smaller_square_stops_and_the_packing_is_the_same(monkeypatch, k, seed, calls):
+    # the rule whose large islands leave the smaller square places its boxes first; the
+    # other stops once its square is past that one's (a square only grows), here midway
+    # through its boxes, or before the first: the layout kept is the one both rules
+    # placed in full would keep
+    uv, island, n = _many_islands(k, seed=seed)
+    done = []
+    place_boxes = packing._place_boxes
+
+    def watched(*args, **kwargs):
+        out = place_boxes(*args, **kwargs)
+        done.append(out is not None)
+        return out
+
+    monkeypatch.setattr(packing, "_place_boxes", watched)
+    early = packing.pack_layout(uv, island, n, margin=0.001).uv
+    monkeypatch.setattr(packing, "_place_boxes", place_boxes)
+    monkeypatch.setattr(packing, "_best_of_rules", _every_rule_in_full)
+    full = packing.pack_layout(uv, island, n, margin=0.001).uv
+    assert done == calls and np.array_equal(early, full)
+
+
+def _every_rule_in_full(masks, choices, boxes_lying, aspect):
+    """:func:`packing._best_of_rules` by its definition: every rule's boxes placed, the
+    smaller square kept (the first rule on a tie)."""
+    best = None
+    for lay in packing._place(masks, choices, aspect):
+        ex, ey = lay.ex * packing._FINER, lay.ey * packing._FINER
+        grid = np.repeat(np.repeat(lay.grid > 0, packing._FINER, axis=0), packing._FINER, axis=1)
+        where, turn, ex, ey = packing._place_boxes(grid, ex, ey, boxes_lying, aspect, lay.rule)
+        square = (max(ex / aspect, ey), ex * ey)
+        if best is None or square < best[0]:
+            best = (square, (lay.where, lay.shape, lay.turn, where, turn))
+    return best[1]
+
+
 def test_the_cells_enclosed_are_filled_for_all_masks_at_once_as_for_each_alone(rng):
     # the masks are filled in one labelling, stacked with free cells between: each is
     # filled as scipy fills it alone (holes 4-connected to no border), whatever its

@@ -26,7 +26,10 @@ more of the texture's texels land on the model.
 4. Both steps run by two placement rules (xatlas's smallest square, Blender's nearest
    corner); the packing with the smaller square is kept, then turned as a whole to the
    angle of its smallest bounding square. The rules place the large islands side by
-   side, so that while their layouts are the same the free positions serve both.
+   side, so that while their layouts are the same the free positions serve both; the
+   boxes go in first by the rule whose large islands left the smaller square, and the
+   other rule's boxes stop once its square cannot be the smaller (most often before the
+   first: the boxes fill holes).
 
 Islands end ``2 * margin`` apart at least: each is grown by half of it (its cells cover
 every point within that Chebyshev distance), and grown islands never share a cell. Pure
@@ -424,19 +427,37 @@ def _best_of_rules(masks, choices, boxes_lying: np.ndarray, aspect: float):
     small ones' boxes (``boxes_lying``: columns >= rows), placed by each rule of
     ``_RULES``: the greedy placement is short-sighted, so the rule that leaves the smaller
     square is kept (the first on a tie). Returns the large islands' cells, shapes and
-    turns, and the boxes' cells (on the grid ``_FINER`` times finer) and turns."""
-    best: tuple | None = None
-    for lay in _place(masks, choices, aspect):
+    turns, and the boxes' cells (on the grid ``_FINER`` times finer) and turns.
+
+    A layout's square only grows as boxes go in, so the rule whose large islands leave the
+    smaller square places its boxes first, and the other's stop as soon as they cannot
+    leave a smaller one: on most layouts before their first box (the boxes fill holes)."""
+
+    def square(ex: int, ey: int) -> tuple[float, int]:
+        return (max(ex / aspect, ey), ex * ey)
+
+    layouts = _place(masks, choices, aspect)
+    start = [square(lay.ex * _FINER, lay.ey * _FINER) for lay in layouts]
+    best: tuple | None = None  # ((square, rule number), what it placed)
+    for r in sorted(range(len(layouts)), key=lambda r: (start[r], r)):
+        lay = layouts[r]
+        bound = None if best is None else best[0]
+        if bound is not None and (start[r], r) > bound:
+            continue
         box_where, box_turn = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
         ex, ey = lay.ex * _FINER, lay.ey * _FINER
         if len(boxes_lying):
             grid = np.repeat(np.repeat(lay.grid > 0, _FINER, axis=0), _FINER, axis=1)
-            box_where, box_turn, ex, ey = _place_boxes(grid, ex, ey, boxes_lying, aspect, lay.rule)
-        square = (max(ex / aspect, ey), ex * ey)
-        if best is None or square < best[0]:
-            best = (square, lay.where, lay.shape, lay.turn, box_where, box_turn)
+            stop = None if bound is None else (lambda ex, ey, r=r, bound=bound: (square(ex, ey), r) > bound)
+            placed = _place_boxes(grid, ex, ey, boxes_lying, aspect, lay.rule, stop)
+            if placed is None:
+                continue
+            box_where, box_turn, ex, ey = placed
+        key = (square(ex, ey), r)
+        if best is None or key < best[0]:
+            best = (key, (lay.where, lay.shape, lay.turn, box_where, box_turn))
     assert best is not None
-    return best[1:]
+    return best[1]
 
 
 def _choices(frames: list[_Frame], by_rank: np.ndarray, nf: int) -> list[list[int]]:
@@ -662,12 +683,12 @@ class _Free:
             self.any[again] = self.cells[again, found]
 
 
-def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: float, rule: str):
+def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: float, rule: str, stop=None):
     """Boxes of ``cells`` (k, 2) (columns, rows; boxes of one size next to each other)
     placed one by one, in order, lying or standing, at the free position (``grid``'s cells
     taken) that keeps the bounding square smallest, then nearest the origin, as
     :func:`_place` does. Returns per box its lower-left cell (k, 2) and quarter turn (0 or
-    1).
+    1); None once ``stop(ex, ey)`` (if given) holds for the cells spanned.
 
     Where a box fits is worked out once per run of boxes of one size (:class:`_Cells`);
     each box placed then rules out the positions it covers, and only the rows whose first
@@ -699,6 +720,8 @@ def _place_boxes(grid: np.ndarray, ex: int, ey: int, cells: np.ndarray, aspect: 
             ex, ey = max(ex, x + w), max(ey, y + h)
             where[i], turn[i] = (x, y), q
             i += 1
+            if grown and stop is not None and stop(ex, ey):
+                return None
     return where, turn, ex, ey
 
 
