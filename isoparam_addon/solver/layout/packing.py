@@ -53,7 +53,7 @@ __all__ = ["Packing", "pack_layout"]
 
 
 _CELLS = 200  # cells along the side of a square as large as the islands' boxes together
-_SHAPED = 48  # the largest islands, placed by their cells; the rest by their boxes
+_SHAPED = 48  # the largest islands, placed by their cells (beyond them: _BOXY); the rest by their boxes
 _SHAPED_CELLS = 64  # ... if their tightest box spans this many cells at least
 _BOXY = 0.9  # beyond _SHAPED, the islands that fill less than this share of their box too
 _TURNED = 4  # the largest islands, tried in more frames (turns between the two boxes')
@@ -308,9 +308,10 @@ def _pack_units(flat, corners: Islands, outline, frames: list[_Frame], filled, c
     box = np.prod(frames[0].size, axis=1)
     alike = np.round(box / max(float(box.max()) * _TIE, TINY))  # (islands alike up to rounding tie)
     rank[np.lexsort((np.arange(n), -alike))] = np.arange(n)
-    # shapes for the largest islands only, and only those whose box spans _SHAPED_CELLS
-    # cells: a smaller one differs from its box by a few cells, and a box's free positions
-    # cost less
+    # shapes for the largest islands, and beyond them for those a box would fit loosely
+    # (a square is placed as well by its box, on the finer grid); only for islands whose
+    # box spans _SHAPED_CELLS cells: a smaller one differs from its box by a few cells, and
+    # a box's free positions cost less
     big = box >= _SHAPED_CELLS * cell * cell
     shaped = (rank < min(_SHAPED, int(big.sum()))) | (big & (filled < _BOXY * box))
     n_shaped = int(shaped.sum())
