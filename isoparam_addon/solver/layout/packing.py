@@ -134,8 +134,8 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
     edge = Islands(corners.label[rim], k)
     frames = list(_tightest_boxes(flat[rim], edge))
     frames += [_frame_at(flat[rim], edge, frames[0].angle + j * np.pi / 8) for j in range(1, _BETWEEN + 1)]
-    filled = np.bincount(label, np.abs(corner_signed_areas(pts)), minlength=k)  # per island
-    area = float(filled.sum())
+    island_area = np.bincount(label, np.abs(corner_signed_areas(pts)), minlength=k)
+    area = float(island_area.sum())
     boxes_area = float(np.prod(frames[0].size, axis=1).sum())
     room = max(boxes_area, area, TINY)
     # the cell follows the square the layout will need: the boxes' area, or half the
@@ -151,7 +151,7 @@ def pack_layout(uv, island, n: int, margin: float = 0.0, aspect: float = 1.0) ->
             # (a margin wide against the islands sets the cell: a pad of many cells would
             # spread the boxes' grid over thousands of cells for gaps)
             grid_cell = max(cell, 0.5 * gap / _PAD_CELLS)
-            placed, shaped = _pack_units(flat, corners, outline, frames, filled, grid_cell, 0.5 * gap, aspect)
+            placed, shaped = _pack_units(flat, corners, outline, frames, island_area, grid_cell, 0.5 * gap, aspect)
             placed = _squarest(placed, rim, aspect)
             lo = placed.min(axis=0)
             ext = placed.max(axis=0) - lo
@@ -299,10 +299,13 @@ def _framed(flat, corners: Islands, frame: _Frame) -> np.ndarray:
     return _turn(flat, corners, frame.angle) - corners.expand(frame.lo)
 
 
-def _pack_units(flat, corners: Islands, outline, frames: list[_Frame], filled, cell: float, pad: float, aspect: float):
+def _pack_units(
+    flat, corners: Islands, outline, frames: list[_Frame], island_area, cell: float, pad: float, aspect: float
+):
     """Place every island of the rows ``flat``, each grown by ``pad``; the rows where they
     went (layout units) and the number of islands placed by their shapes. ``outline``:
-    the triangles that mark an island's cells (:func:`_outline`)."""
+    the triangles that mark an island's cells (:func:`_outline`); ``island_area`` (n,):
+    each island's UV area."""
     n, nf = corners.n, len(frames)
     rank = np.empty(n, dtype=np.int64)
     box = np.prod(frames[0].size, axis=1)
@@ -313,7 +316,7 @@ def _pack_units(flat, corners: Islands, outline, frames: list[_Frame], filled, c
     # box spans _SHAPED_CELLS cells: a smaller one differs from its box by a few cells, and
     # a box's free positions cost less
     big = box >= _SHAPED_CELLS * cell * cell
-    shaped = (rank < min(_SHAPED, int(big.sum()))) | (big & (filled < _BOXY * box))
+    shaped = (rank < min(_SHAPED, int(big.sum()))) | (big & (island_area < _BOXY * box))
     n_shaped = int(shaped.sum())
     by_rank = np.argsort(rank)
     by_rank = by_rank[shaped[by_rank]]
@@ -831,8 +834,8 @@ def _runs(masks: list[np.ndarray]) -> list[tuple[list, list, list, list]]:
     rest, length = np.divmod(key[head], w + 1)
     pose, first = np.divmod(rest, w + 1)
     cut = np.searchsorted(pose, np.arange(len(masks) + 1)).tolist()
-    lists = row[head].tolist(), first.tolist(), length.tolist(), count.tolist()
-    return [tuple(x[cut[i] : cut[i + 1]] for x in lists) for i in range(len(masks))]  # type: ignore[misc]
+    rows, firsts, lengths, counts = row[head].tolist(), first.tolist(), length.tolist(), count.tolist()
+    return [(rows[a:b], firsts[a:b], lengths[a:b], counts[a:b]) for a, b in zip(cut, cut[1:])]
 
 
 def _box_runs(w: int, h: int):
